@@ -1,0 +1,102 @@
+// The evaluation form of a basis: flat arrays per element, point location, and psi_k(x),
+// grad psi_k(x) for the samples of the element holding x (Eq. 3, Eq. 13), with no allocation
+// per call. This is what an asset stores and what the runtime evaluates.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/basis.h"
+
+namespace cadinterp::core {
+
+/// Scratch for evaluation; one per thread. Sized once by CompiledBasis::make_workspace.
+struct EvalWorkspace {
+  std::vector<double> u;     ///< K    point in unit coordinates
+  std::vector<double> phi;   ///< max #B   B-spline values
+  std::vector<double> dphi;  ///< K * max #B   B-spline derivatives, direction-major
+  std::vector<double> psi;   ///< max #T
+  std::vector<double> dpsi;  ///< K * max #T, direction-major
+};
+
+/// Result of an evaluation; pointers stay valid until the next call with the same workspace
+/// (psi, dpsi) or for the lifetime of the CompiledBasis (samples).
+struct BasisWeights {
+  int element = -1;
+  int count = 0;                 ///< #T
+  const int* samples = nullptr;  ///< #T sample ids
+  const double* psi = nullptr;   ///< #T  psi_k(x)
+  const double* dpsi = nullptr;  ///< K by #T, dpsi[d * #T + t] = d psi_t / d x_d (real units)
+};
+
+class CompiledBasis {
+ public:
+  /// Flattens `basis` for the parameter box [lo, hi] (K values each, lo < hi).
+  /// `infeasible`, if given, has one flag per sample; an element whose terms include an
+  /// infeasible sample is marked infeasible (never interpolated across).
+  static CompiledBasis compile(const Basis& basis, const std::vector<double>& lo,
+                               const std::vector<double>& hi,
+                               const std::vector<bool>* infeasible = nullptr);
+
+  int dim() const { return K_; }
+  Degree degree() const { return degree_; }
+  int element_count() const { return static_cast<int>(elem_term_begin_.size()) - 1; }
+  int sample_count() const { return static_cast<int>(sample_unit_.size()) / K_; }
+  const std::vector<double>& lower() const { return lo_; }
+  const std::vector<double>& upper() const { return hi_; }
+
+  /// Sample k's position in real parameter coordinates, written to x (K values).
+  void sample_position(int k, double* x) const;
+  /// Element e's box in real coordinates.
+  void element_box(int e, double* lo, double* hi) const;
+  /// Samples with psi != 0 on element e.
+  const int* element_samples(int e, int* count) const;
+  bool element_feasible(int e) const { return feasible_[static_cast<std::size_t>(e)] != 0; }
+  int max_terms() const { return max_terms_; }
+  int max_bsplines() const { return max_bsplines_; }
+
+  /// The element holding x (real coordinates), -1 if x is outside the box or not finite.
+  /// Points on faces are assigned as KdTree::locate_unit does.
+  int locate(const double* x) const;
+
+  EvalWorkspace make_workspace() const;
+
+  /// psi and (if want_grad) grad psi at x, for the element `element` (any x: points on or near
+  /// the element's faces give that element's one-sided limits). No allocation.
+  void eval_element(int element, const double* x, EvalWorkspace& ws, bool want_grad,
+                    BasisWeights* out) const;
+
+  /// locate + eval_element. Returns false (out untouched) when x is outside the domain.
+  bool eval(const double* x, EvalWorkspace& ws, bool want_grad, BasisWeights* out) const;
+
+ private:
+  int K_ = 0;
+  Degree degree_ = Degree::Linear;
+  std::vector<double> lo_, hi_, inv_extent_;
+  std::vector<double> sample_unit_;  // #samples by K
+
+  // Tree for point location: per node the split direction (-1 leaf), the split coordinate in
+  // unit coordinates, the two children, and for a leaf its element index.
+  std::vector<std::int8_t> node_dir_;
+  std::vector<double> node_split_;
+  std::vector<std::int32_t> node_child_;  // 2 per node
+  std::vector<std::int32_t> node_elem_;
+
+  // Per element e: box (unit), B-splines [elem_bs_begin_[e], elem_bs_begin_[e+1]) with centre
+  // and inverse knot spacing per direction, terms [elem_term_begin_[e], ...), and a
+  // #T by #B row-major coefficient block starting at elem_coeff_begin_[e].
+  std::vector<double> elem_box_;  // #E by 2K (lo..., hi...)
+  std::vector<std::uint8_t> feasible_;
+  std::vector<std::int64_t> elem_bs_begin_, elem_term_begin_, elem_coeff_begin_;
+  std::vector<double> bs_centre_, bs_inv_width_;  // #B(all) by K
+  std::vector<int> term_sample_;
+  std::vector<double> coeff_;
+  int max_terms_ = 0, max_bsplines_ = 0;
+};
+
+/// Evaluates one ElementBasis of a live Basis at unit point u (for the adaptive driver and
+/// tests; the runtime uses CompiledBasis). psi: #T values; dpsi (optional): K by #T.
+void eval_element_basis(const Basis& basis, const ElementBasis& eb, const double* u, double* psi,
+                        double* dpsi);
+
+}  // namespace cadinterp::core
