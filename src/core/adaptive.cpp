@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <queue>
 #include <stdexcept>
 #include <unordered_map>
@@ -26,23 +27,23 @@ class HostCache {
             const HostFunction& f)
       : K_(K), m_(m), lo_(lo), hi_(hi), f_(f) {}
 
-  /// The host's values at p, or nullptr when p is infeasible.
+  /// The host's values at p, or nullptr when p is infeasible. The pointer stays valid for the
+  /// cache's lifetime (rows are allocated one by one and never move).
   const double* at(const IPoint& p) {
     auto it = index_.find(p);
     if (it == index_.end()) {
-      const std::size_t row = ok_.size();
-      values_.resize((row + 1) * static_cast<std::size_t>(m_));
+      auto row = std::make_unique<double[]>(static_cast<std::size_t>(m_));
       double x[kMaxDim];
       for (int d = 0; d < K_; ++d) x[d] = lo_[d] + (hi_[d] - lo_[d]) * to_unit(p[d]);
-      double* v = values_.data() + row * static_cast<std::size_t>(m_);
-      bool ok = f_(x, v);
-      for (int i = 0; ok && i < m_; ++i) ok = std::isfinite(v[i]);
-      ok_.push_back(ok);
-      it = index_.emplace(p, row).first;
+      bool ok = f_(x, row.get());
+      for (int i = 0; ok && i < m_; ++i) ok = std::isfinite(row[static_cast<std::size_t>(i)]);
+      if (!ok) row.reset();
+      it = index_.emplace(p, rows_.size()).first;
+      rows_.push_back(std::move(row));
     }
-    return ok_[it->second] ? values_.data() + it->second * static_cast<std::size_t>(m_) : nullptr;
+    return rows_[it->second].get();
   }
-  int calls() const { return static_cast<int>(ok_.size()); }
+  int calls() const { return static_cast<int>(rows_.size()); }
 
  private:
   int K_, m_;
@@ -50,8 +51,7 @@ class HostCache {
   const std::vector<double>& hi_;
   const HostFunction& f_;
   std::unordered_map<IPoint, std::size_t, IPointHash> index_;
-  std::vector<double> values_;
-  std::vector<bool> ok_;
+  std::vector<std::unique_ptr<double[]>> rows_;  // null for infeasible points
 };
 
 int level_sum(const KdTree::Node& n, int K) {
@@ -133,16 +133,28 @@ AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
     if (!feasible) {
       if (opt.refine_infeasible) dir = widest;
     } else {
-      double u[kMaxDim];
-      for (int d = 0; d < K; ++d) u[d] = to_unit(c[d]);
+      // Error of the interpolant against the host at a grid point of the element.
       std::vector<double> psi(eb.terms.size());
-      eval_element_basis(basis, eb, u, psi.data(), nullptr);
-      std::fill(interp.begin(), interp.end(), 0.0);
-      for (std::size_t t = 0; t < eb.terms.size(); ++t) {
-        const double* v = host.at(basis.sample(eb.terms[t]));
-        for (int i = 0; i < m; ++i) interp[static_cast<std::size_t>(i)] += psi[t] * v[i];
-      }
-      err = metric(interp.data(), fc, m);
+      auto error_at = [&](const IPoint& p, const double* truth) {
+        double u[kMaxDim];
+        for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
+        eval_element_basis(basis, eb, u, psi.data(), nullptr);
+        std::fill(interp.begin(), interp.end(), 0.0);
+        for (std::size_t t = 0; t < eb.terms.size(); ++t) {
+          const double* v = host.at(basis.sample(eb.terms[t]));
+          for (int i = 0; i < m; ++i) interp[static_cast<std::size_t>(i)] += psi[t] * v[i];
+        }
+        return metric(interp.data(), truth, m);
+      };
+      err = error_at(c, fc);
+      if (opt.check_face_centres)
+        for (int d = 0; d < K && std::isfinite(err); ++d)
+          for (int side = 0; side < 2; ++side) {
+            IPoint p = c;
+            p[d] = side ? node.box.hi[d] : node.box.lo[d];
+            const double* fp = host.at(p);
+            err = fp ? std::max(err, error_at(p, fp)) : std::numeric_limits<double>::infinity();
+          }
       if (err > opt.tolerance && widest >= 0) {
         double best = -1.0;
         for (int d = 0; d < K; ++d) {
@@ -163,6 +175,7 @@ AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
             dir = d;
           }
         }
+        if (dir < 0) dir = widest;  // a metric returning NaN everywhere
       }
     }
     res.leaf_error[static_cast<std::size_t>(leaf)] = err;

@@ -17,6 +17,7 @@ void sort_unique(std::vector<int>& v) {
 
 Basis::Basis(int K, Degree degree) : degree_(degree), tree_(K) {
   leaf_samples_.resize(1);
+  leaf_bsplines_.resize(1);
   for (int mask = 0; mask < (1 << K); ++mask) {
     IPoint p{};
     for (int d = 0; d < K; ++d) p[d] = ((mask >> d) & 1) ? kUnit : 0;
@@ -59,7 +60,6 @@ int Basis::add_sample(const IPoint& p) {
   const int id = sample_count();
   samples_.push_back(p);
   sample_id_.emplace(p, id);
-  sample_bsplines_.emplace_back();
   std::vector<int> holders;
   tree_.leaves_containing(p, holders);
   for (int leaf : holders)
@@ -107,45 +107,54 @@ int Basis::bspline_id(const BsplineKey& key) {
   bsplines_.push_back(Bspline{key, {}, true});
   bspline_id_.emplace(key, id);
   ++live_bsplines_;
+  index_bspline(id, true);
   return id;
+}
+
+void Basis::index_bspline(int b, bool add) {
+  std::vector<int> leaves;
+  tree_.leaves_overlapping(support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, dim()),
+                           leaves);
+  for (int leaf : leaves) {
+    auto& list = leaf_bsplines_[static_cast<std::size_t>(leaf)];
+    if (add)
+      list.push_back(b);
+    else
+      list.erase(std::find(list.begin(), list.end(), b));
+  }
 }
 
 void Basis::set_coeffs(int b, std::vector<Coefficient> coeffs) {
   Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
-  for (const auto& [k, a] : bs.coeffs) {
-    auto& list = sample_bsplines_[static_cast<std::size_t>(k)];
-    list.erase(std::remove(list.begin(), list.end(), b), list.end());
-  }
   coeffs.erase(
       std::remove_if(coeffs.begin(), coeffs.end(),
                      [](const Coefficient& c) { return std::abs(c.second) < kCoeffEpsilon; }),
       coeffs.end());
   std::sort(coeffs.begin(), coeffs.end());
   bs.coeffs = std::move(coeffs);
-  for (const auto& [k, a] : bs.coeffs) sample_bsplines_[static_cast<std::size_t>(k)].push_back(b);
   if (bs.coeffs.empty()) kill_bspline(b);
 }
 
 void Basis::kill_bspline(int b) {
   Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
   if (!bs.alive) return;
-  for (const auto& [k, a] : bs.coeffs) {
-    auto& list = sample_bsplines_[static_cast<std::size_t>(k)];
-    list.erase(std::remove(list.begin(), list.end(), b), list.end());
-  }
+  index_bspline(b, false);
   bs.coeffs.clear();
   bs.alive = false;
   bspline_id_.erase(bs.key);
   --live_bsplines_;
 }
 
-std::vector<int> Basis::bsplines_near(const std::vector<int>& samples) const {
+std::vector<int> Basis::bsplines_overlapping(const std::vector<int>& leaves) const {
+  std::vector<char> seen(bsplines_.size(), 0);
   std::vector<int> out;
-  for (int k : samples) {
-    const auto& list = sample_bsplines_[static_cast<std::size_t>(k)];
-    out.insert(out.end(), list.begin(), list.end());
-  }
-  sort_unique(out);
+  for (int leaf : leaves)
+    for (int b : leaf_bsplines_[static_cast<std::size_t>(leaf)])
+      if (!seen[static_cast<std::size_t>(b)]) {
+        seen[static_cast<std::size_t>(b)] = 1;
+        out.push_back(b);
+      }
+  std::sort(out.begin(), out.end());
   return out;
 }
 
@@ -155,7 +164,8 @@ bool Basis::overlaps_domain(const BsplineKey& key) const {
   return boxes_overlap(support_box(key, degree_, dim()), domain, dim());
 }
 
-bool Basis::sample_is_local(int k, const std::vector<int>& support_leaves) const {
+bool Basis::sample_is_local(int k, const std::vector<int>& support_leaves,
+                            HolderCache& holders) const {
   const IPoint& x = sample(k);
   const int K = dim();
   if (degree_ == Degree::Linear) {
@@ -164,12 +174,15 @@ bool Basis::sample_is_local(int k, const std::vector<int>& support_leaves) const
     return true;
   }
   // Cubic: k in Bbar(n) iff a leaf holding x_k touches n.
-  std::vector<int> holders;
-  tree_.leaves_containing(x, holders);
+  auto it = holders.find(k);
+  if (it == holders.end()) {
+    it = holders.emplace(k, std::vector<int>()).first;
+    tree_.leaves_containing(x, it->second);
+  }
   for (int n : support_leaves) {
     const IBox& nb = tree_.node(n).box;
     bool near = false;
-    for (int m : holders)
+    for (int m : it->second)
       if (boxes_touch(tree_.node(m).box, nb, K)) {
         near = true;
         break;
@@ -182,27 +195,28 @@ bool Basis::sample_is_local(int k, const std::vector<int>& support_leaves) const
 ElementBasis Basis::element_basis(int leaf) const {
   if (leaf < 0 || leaf >= tree_.node_count() || !tree_.is_leaf(leaf))
     throw std::invalid_argument("Basis::element_basis: not a leaf");
-  const int K = dim();
-  const IBox& box = tree_.node(leaf).box;
   ElementBasis eb;
   eb.leaf = leaf;
-  // By locality every B-spline overlapping e has all its samples in the neighbourhood of e.
-  std::vector<int> ids;
-  for (int b : bsplines_near(neighbourhood(leaf)))
-    if (boxes_overlap(support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, K), box, K))
-      ids.push_back(b);
+  const std::vector<int> ids = bsplines_overlapping({leaf});
+  std::vector<char> seen(samples_.size(), 0);
   for (int b : ids)
-    for (const auto& [k, a] : bsplines_[static_cast<std::size_t>(b)].coeffs) eb.terms.push_back(k);
-  sort_unique(eb.terms);
+    for (const auto& [k, a] : bsplines_[static_cast<std::size_t>(b)].coeffs)
+      if (!seen[static_cast<std::size_t>(k)]) {
+        seen[static_cast<std::size_t>(k)] = 1;
+        eb.terms.push_back(k);
+      }
+  std::sort(eb.terms.begin(), eb.terms.end());
   eb.bsplines.reserve(ids.size());
-  eb.coeff.assign(eb.terms.size() * ids.size(), 0.0);
-  for (std::size_t j = 0; j < ids.size(); ++j) {
-    const Bspline& bs = bsplines_[static_cast<std::size_t>(ids[j])];
+  eb.col_begin.push_back(0);
+  for (int b : ids) {
+    const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
     eb.bsplines.push_back(bs.key);
     for (const auto& [k, a] : bs.coeffs) {
-      const auto row = std::lower_bound(eb.terms.begin(), eb.terms.end(), k) - eb.terms.begin();
-      eb.coeff[static_cast<std::size_t>(row) * ids.size() + j] = a;
+      const auto t = std::lower_bound(eb.terms.begin(), eb.terms.end(), k) - eb.terms.begin();
+      eb.col_term.push_back(static_cast<int>(t));
+      eb.col_value.push_back(a);
     }
+    eb.col_begin.push_back(static_cast<int>(eb.col_term.size()));
   }
   return eb;
 }

@@ -37,12 +37,16 @@ namespace cadinterp::core {
 using Coefficient = std::pair<int, double>;
 
 /// The element-local form of the basis on one leaf e: the B-splines phi_b overlapping e and the
-/// samples k with psi_k != 0 on e ("terms"), with psi_k = sum_b coeff[k][b] phi_b on e (Eq. 3).
+/// samples k with psi_k != 0 on e ("terms"): psi_{terms[t]} = sum_b alpha_t^b phi_b on e (Eq. 3).
+/// The coefficients are stored by B-spline (each has only a few): B-spline j owns entries
+/// [col_begin[j], col_begin[j+1]) of (col_term, col_value), col_term indexing `terms`.
 struct ElementBasis {
   int leaf = -1;
   std::vector<BsplineKey> bsplines;  ///< #B
   std::vector<int> terms;            ///< #T sample ids, increasing
-  std::vector<double> coeff;         ///< #T by #B, row-major
+  std::vector<int> col_begin;        ///< #B + 1
+  std::vector<int> col_term;         ///< #nonzeros, index into terms
+  std::vector<double> col_value;     ///< #nonzeros, alpha
 };
 
 class Basis {
@@ -94,13 +98,17 @@ class Basis {
   int bspline_id(const BsplineKey& key);  // creates an empty live B-spline if missing
   void set_coeffs(int b, std::vector<Coefficient> coeffs);
   void kill_bspline(int b);
-  std::vector<int> bsplines_near(const std::vector<int>& samples) const;
+  /// Live B-splines whose support meets the interior of any of `leaves`, increasing ids.
+  std::vector<int> bsplines_overlapping(const std::vector<int>& leaves) const;
   bool overlaps_domain(const BsplineKey& key) const;
-  bool sample_is_local(int k, const std::vector<int>& support_leaves) const;
+  /// Leaves holding a sample, cached while the tree does not change (within one refine step 3).
+  using HolderCache = std::unordered_map<int, std::vector<int>>;
+  bool sample_is_local(int k, const std::vector<int>& support_leaves, HolderCache& holders) const;
 
   // Algorithm 1 steps (refine.cpp).
   std::vector<int> add_split_samples(const IBox& parent, int dir, Coord mid);
-  void uniformize(const IBox& box, int dir, int min_level, const std::vector<int>& near);
+  void uniformize(const IBox& box, int dir, int min_level, std::vector<int>& near);
+  void index_bspline(int b, bool add);
   void refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& target,
                        const std::vector<int>& candidates);
   void enforce_locality(const std::vector<int>& candidates);
@@ -110,8 +118,8 @@ class Basis {
   KdTree tree_;
   std::vector<IPoint> samples_;
   std::unordered_map<IPoint, int, IPointHash> sample_id_;
-  std::vector<std::vector<int>> leaf_samples_;     // node id -> B(e) (leaves only)
-  std::vector<std::vector<int>> sample_bsplines_;  // sample id -> B-splines with alpha != 0
+  std::vector<std::vector<int>> leaf_samples_;   // node id -> B(e) (leaves only)
+  std::vector<std::vector<int>> leaf_bsplines_;  // node id -> live B-splines overlapping it
   std::vector<Bspline> bsplines_;
   std::unordered_map<BsplineKey, int, BsplineKeyHash> bspline_id_;
   int live_bsplines_ = 0;

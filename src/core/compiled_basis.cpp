@@ -10,7 +10,10 @@ namespace {
 
 // The evaluation kernel shared by CompiledBasis and eval_element_basis.
 //   phi_b(u) = prod_d B((u_d - c_bd) * inv_w_bd)          (tensor product, §4.1)
-//   psi_t(u) = sum_b A[t][b] phi_b(u)                        (Eq. 6 restricted to e, Eq. 3)
+//   psi_t(u) = sum_b alpha_t^b phi_b(u)                      (Eq. 6 restricted to e, Eq. 3)
+// Coefficients are stored per B-spline (a few each), and a B-spline that vanishes at u together
+// with its gradient (some direction has value and derivative 0) is skipped: cost is the number of
+// B-splines nonzero at u times their coefficient counts, not #T * #B.
 // On the element's upper face in direction d, the polynomial pieces are taken from the left so
 // that the result is the element's own one-sided limit.
 struct KernelInput {
@@ -20,46 +23,41 @@ struct KernelInput {
   int nb;
   const double* centre;     // nb by K
   const double* inv_width;  // nb by K
+  const std::int64_t* col;  // nb + 1 offsets into col_term / col_value (may start above 0)
+  const std::int32_t* col_term;
+  const double* col_value;
   int nt;
-  const double* coeff;  // nt by nb
 };
 
-void eval_kernel(const KernelInput& in, const double* u, double* phi, double* dphi, double* psi,
-                 double* dpsi) {
+void eval_kernel(const KernelInput& in, const double* u, double* psi, double* dpsi) {
   const int K = in.K;
-  const int nb = in.nb;
-  for (int b = 0; b < nb; ++b) {
+  std::fill(psi, psi + in.nt, 0.0);
+  if (dpsi) std::fill(dpsi, dpsi + static_cast<std::ptrdiff_t>(K) * in.nt, 0.0);
+  for (int b = 0; b < in.nb; ++b) {
     double val[kMaxDim], der[kMaxDim];
-    double prod = 1.0;
+    bool vanishes = false;
     for (int d = 0; d < K; ++d) {
       const double iw = in.inv_width[b * K + d];
       const double t = (u[d] - in.centre[b * K + d]) * iw;
       bspline_1d(in.degree, t, u[d] >= in.box[K + d], &val[d], &der[d]);
+      if (val[d] == 0.0 && der[d] == 0.0) {
+        vanishes = true;
+        break;
+      }
       der[d] *= iw;
-      prod *= val[d];
     }
-    phi[b] = prod;
-    if (dphi) {
-      for (int d = 0; d < K; ++d) {
-        double g = der[d];
-        for (int e = 0; e < K; ++e)
-          if (e != d) g *= val[e];
-        dphi[d * nb + b] = g;
-      }
-    }
-  }
-  for (int t = 0; t < in.nt; ++t) {
-    const double* row = in.coeff + static_cast<std::ptrdiff_t>(t) * nb;
-    double s = 0.0;
-    for (int b = 0; b < nb; ++b) s += row[b] * phi[b];
-    psi[t] = s;
-    if (dpsi) {
-      for (int d = 0; d < K; ++d) {
-        const double* dp = dphi + d * nb;
-        double g = 0.0;
-        for (int b = 0; b < nb; ++b) g += row[b] * dp[b];
-        dpsi[d * in.nt + t] = g;
-      }
+    if (vanishes) continue;
+    double phi = 1.0;
+    for (int d = 0; d < K; ++d) phi *= val[d];
+    const std::int64_t j0 = in.col[b], j1 = in.col[b + 1];
+    for (std::int64_t j = j0; j < j1; ++j) psi[in.col_term[j]] += in.col_value[j] * phi;
+    if (!dpsi) continue;
+    for (int d = 0; d < K; ++d) {
+      double g = der[d];
+      for (int e = 0; e < K; ++e)
+        if (e != d) g *= val[e];
+      double* row = dpsi + static_cast<std::ptrdiff_t>(d) * in.nt;
+      for (std::int64_t j = j0; j < j1; ++j) row[in.col_term[j]] += in.col_value[j] * g;
     }
   }
 }
@@ -104,7 +102,7 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
 
   c.elem_bs_begin_.push_back(0);
   c.elem_term_begin_.push_back(0);
-  c.elem_coeff_begin_.push_back(0);
+  c.bs_col_begin_.push_back(0);
   for (int leaf : leaves) {
     const ElementBasis eb = basis.element_basis(leaf);
     const IBox& box = tree.node(leaf).box;
@@ -121,10 +119,13 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
       if (infeasible && (*infeasible)[static_cast<std::size_t>(k)]) feasible = false;
     }
     c.feasible_.push_back(feasible ? 1 : 0);
-    c.coeff_.insert(c.coeff_.end(), eb.coeff.begin(), eb.coeff.end());
+    const auto col0 = static_cast<std::int64_t>(c.col_term_.size());
+    for (std::size_t j = 1; j < eb.col_begin.size(); ++j)
+      c.bs_col_begin_.push_back(col0 + eb.col_begin[j]);
+    c.col_term_.insert(c.col_term_.end(), eb.col_term.begin(), eb.col_term.end());
+    c.col_value_.insert(c.col_value_.end(), eb.col_value.begin(), eb.col_value.end());
     c.elem_bs_begin_.push_back(static_cast<std::int64_t>(c.bs_centre_.size()) / K);
     c.elem_term_begin_.push_back(static_cast<std::int64_t>(c.term_sample_.size()));
-    c.elem_coeff_begin_.push_back(static_cast<std::int64_t>(c.coeff_.size()));
     c.max_terms_ = std::max(c.max_terms_, static_cast<int>(eb.terms.size()));
     c.max_bsplines_ = std::max(c.max_bsplines_, static_cast<int>(eb.bsplines.size()));
   }
@@ -168,8 +169,6 @@ int CompiledBasis::locate(const double* x) const {
 EvalWorkspace CompiledBasis::make_workspace() const {
   EvalWorkspace ws;
   ws.u.resize(static_cast<std::size_t>(K_));
-  ws.phi.resize(static_cast<std::size_t>(max_bsplines_));
-  ws.dphi.resize(static_cast<std::size_t>(K_ * max_bsplines_));
   ws.psi.resize(static_cast<std::size_t>(max_terms_));
   ws.dpsi.resize(static_cast<std::size_t>(K_ * max_terms_));
   return ws;
@@ -185,16 +184,17 @@ void CompiledBasis::eval_element(int e, const double* x, EvalWorkspace& ws, bool
     if (x[d] == hi_[d]) ws.u[static_cast<std::size_t>(d)] = 1.0;
   const auto bs0 = elem_bs_begin_[ei];
   const auto t0 = elem_term_begin_[ei];
-  KernelInput in{K_,
-                 degree_,
-                 elem_box_.data() + static_cast<std::ptrdiff_t>(e) * 2 * K_,
-                 static_cast<int>(elem_bs_begin_[ei + 1] - bs0),
-                 bs_centre_.data() + bs0 * K_,
-                 bs_inv_width_.data() + bs0 * K_,
-                 static_cast<int>(elem_term_begin_[ei + 1] - t0),
-                 coeff_.data() + elem_coeff_begin_[ei]};
-  eval_kernel(in, ws.u.data(), ws.phi.data(), want_grad ? ws.dphi.data() : nullptr, ws.psi.data(),
-              want_grad ? ws.dpsi.data() : nullptr);
+  const KernelInput in{K_,
+                       degree_,
+                       elem_box_.data() + static_cast<std::ptrdiff_t>(e) * 2 * K_,
+                       static_cast<int>(elem_bs_begin_[ei + 1] - bs0),
+                       bs_centre_.data() + bs0 * K_,
+                       bs_inv_width_.data() + bs0 * K_,
+                       bs_col_begin_.data() + bs0,
+                       col_term_.data(),
+                       col_value_.data(),
+                       static_cast<int>(elem_term_begin_[ei + 1] - t0)};
+  eval_kernel(in, ws.u.data(), ws.psi.data(), want_grad ? ws.dpsi.data() : nullptr);
   if (want_grad)  // chain rule: u_d = (x_d - lo_d) / (hi_d - lo_d)
     for (int d = 0; d < K_; ++d)
       for (int t = 0; t < in.nt; ++t)
@@ -228,17 +228,18 @@ void eval_element_basis(const Basis& basis, const ElementBasis& eb, const double
       centre.push_back(to_unit(key.centre[d]));
       inv_width.push_back(1.0 / to_unit(width_at(key.level[d])));
     }
-  const int nb = static_cast<int>(eb.bsplines.size());
-  std::vector<double> phi(static_cast<std::size_t>(nb)), dphi(static_cast<std::size_t>(nb * K));
-  KernelInput in{K,
-                 basis.degree(),
-                 b.data(),
-                 nb,
-                 centre.data(),
-                 inv_width.data(),
-                 static_cast<int>(eb.terms.size()),
-                 eb.coeff.data()};
-  eval_kernel(in, u, phi.data(), dpsi ? dphi.data() : nullptr, psi, dpsi);
+  std::vector<std::int64_t> col(eb.col_begin.begin(), eb.col_begin.end());
+  const KernelInput in{K,
+                       basis.degree(),
+                       b.data(),
+                       static_cast<int>(eb.bsplines.size()),
+                       centre.data(),
+                       inv_width.data(),
+                       col.data(),
+                       eb.col_term.data(),
+                       eb.col_value.data(),
+                       static_cast<int>(eb.terms.size())};
+  eval_kernel(in, u, psi, dpsi);
 }
 
 }  // namespace cadinterp::core

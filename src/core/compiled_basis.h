@@ -13,8 +13,6 @@ namespace cadinterp::core {
 /// Scratch for evaluation; one per thread. Sized once by CompiledBasis::make_workspace.
 struct EvalWorkspace {
   std::vector<double> u;     ///< K    point in unit coordinates
-  std::vector<double> phi;   ///< max #B   B-spline values
-  std::vector<double> dphi;  ///< K * max #B   B-spline derivatives, direction-major
   std::vector<double> psi;   ///< max #T
   std::vector<double> dpsi;  ///< K * max #T, direction-major
 };
@@ -83,14 +81,17 @@ class CompiledBasis {
   std::vector<std::int32_t> node_elem_;
 
   // Per element e: box (unit), B-splines [elem_bs_begin_[e], elem_bs_begin_[e+1]) with centre
-  // and inverse knot spacing per direction, terms [elem_term_begin_[e], ...), and a
-  // #T by #B row-major coefficient block starting at elem_coeff_begin_[e].
+  // and inverse knot spacing per direction, terms [elem_term_begin_[e], ...); B-spline b (global
+  // index) has coefficients [bs_col_begin_[b], bs_col_begin_[b+1]) of (col_term_, col_value_),
+  // col_term_ indexing the element's terms.
   std::vector<double> elem_box_;  // #E by 2K (lo..., hi...)
   std::vector<std::uint8_t> feasible_;
-  std::vector<std::int64_t> elem_bs_begin_, elem_term_begin_, elem_coeff_begin_;
+  std::vector<std::int64_t> elem_bs_begin_, elem_term_begin_;
   std::vector<double> bs_centre_, bs_inv_width_;  // #B(all) by K
+  std::vector<std::int64_t> bs_col_begin_;        // #B(all) + 1
   std::vector<int> term_sample_;
-  std::vector<double> coeff_;
+  std::vector<std::int32_t> col_term_;
+  std::vector<double> col_value_;
   int max_terms_ = 0, max_bsplines_ = 0;
 };
 

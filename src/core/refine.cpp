@@ -10,11 +10,6 @@ namespace cadinterp::core {
 
 namespace {
 
-void sort_unique(std::vector<int>& v) {
-  std::sort(v.begin(), v.end());
-  v.erase(std::unique(v.begin(), v.end()), v.end());
-}
-
 // Adds w * src into dst; both sorted by sample id, result sorted.
 void axpy(std::vector<Coefficient>& dst, double w, const std::vector<Coefficient>& src) {
   std::vector<Coefficient> out;
@@ -46,26 +41,25 @@ std::vector<int> Basis::refine(int leaf, int dir) {
   // Step 1 (element refinement): the children inherit the parent's samples that lie on them,
   // then samples are added at the corners of every new common cuboid.
   leaf_samples_.resize(static_cast<std::size_t>(tree_.node_count()));
+  leaf_bsplines_.resize(static_cast<std::size_t>(tree_.node_count()));
   for (int kid : kids) {
+    const IBox& kb = tree_.node(kid).box;
     auto& mine = leaf_samples_[static_cast<std::size_t>(kid)];
     for (int k : leaf_samples_[static_cast<std::size_t>(leaf)])
-      if (box_contains(tree_.node(kid).box, sample(k), K)) mine.push_back(k);
+      if (box_contains(kb, sample(k), K)) mine.push_back(k);
+    auto& overlapping = leaf_bsplines_[static_cast<std::size_t>(kid)];
+    for (int b : leaf_bsplines_[static_cast<std::size_t>(leaf)])
+      if (boxes_overlap(support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, K), kb, K))
+        overlapping.push_back(b);
   }
-  leaf_samples_[static_cast<std::size_t>(leaf)].clear();
-  leaf_samples_[static_cast<std::size_t>(leaf)].shrink_to_fit();
+  std::vector<int>().swap(leaf_samples_[static_cast<std::size_t>(leaf)]);
+  std::vector<int>().swap(leaf_bsplines_[static_cast<std::size_t>(leaf)]);
   std::vector<int> added = add_split_samples(parent.box, dir, mid);
 
-  // Every B-spline that overlaps the parent, or (cubic) a leaf touching it, has its samples in
-  // the neighbourhoods of the leaves touching the parent. Those are the only ones whose
-  // refinement or locality can change: elsewhere neighbourhoods only gained samples.
+  // Only B-splines overlapping the parent, or (cubic) a leaf touching it, can need refinement or
+  // lose locality: elsewhere neighbourhoods only gained samples.
   std::vector<int> touching;
   tree_.leaves_touching(parent.box, touching);
-  std::vector<int> near_samples;
-  for (int n : touching) {
-    const std::vector<int> s = neighbourhood(n);
-    near_samples.insert(near_samples.end(), s.begin(), s.end());
-  }
-  sort_unique(near_samples);
 
   // Step 2 (basis refinement, Eq. 8). The B-splines overlapping the element are first brought
   // to one level per direction (the finest among them), then refined along `dir` to the
@@ -79,14 +73,16 @@ std::vector<int> Basis::refine(int leaf, int dir) {
   // support: it is a local point, and Eq. 10 always succeeds.
   // Cubic: Bbar of each leaf touching the element can lose samples, so B-splines overlapping
   // those leaves may break locality too; they are brought to one level per leaf likewise.
-  uniformize(parent.box, dir, parent.level[dir] + 1, near_samples);
+  std::vector<int> near_bsplines = bsplines_overlapping(touching);
+  uniformize(parent.box, dir, parent.level[dir] + 1, near_bsplines);
   if (degree_ == Degree::Cubic)
     for (int n : touching)
-      if (n != kids[0] && n != kids[1]) uniformize(tree_.node(n).box, -1, 0, near_samples);
+      if (n != kids[0] && n != kids[1]) uniformize(tree_.node(n).box, -1, 0, near_bsplines);
 
   // Step 3 (combination, Eq. 10).
   std::vector<int> candidates;
-  for (int b : bsplines_near(near_samples)) {
+  for (int b : near_bsplines) {
+    if (!bsplines_[static_cast<std::size_t>(b)].alive) continue;
     const IBox sup = support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, K);
     const bool hits = degree_ == Degree::Linear
                           ? boxes_overlap(sup, parent.box, K)
@@ -99,18 +95,23 @@ std::vector<int> Basis::refine(int leaf, int dir) {
   return added;
 }
 
-void Basis::uniformize(const IBox& box, int dir, int min_level, const std::vector<int>& near) {
+void Basis::uniformize(const IBox& box, int dir, int min_level, std::vector<int>& near) {
+  // `near` holds every B-spline that can overlap `box` (increasing ids); B-splines created here
+  // have the largest ids and are appended, so it stays complete and sorted for the next call.
   const int K = dim();
   std::array<int, kMaxDim> target{};
   std::vector<int> over;
-  for (int b : bsplines_near(near)) {
-    const BsplineKey& key = bsplines_[static_cast<std::size_t>(b)].key;
-    if (!boxes_overlap(support_box(key, degree_, K), box, K)) continue;
+  for (int b : near) {
+    const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
+    if (!bs.alive || !boxes_overlap(support_box(bs.key, degree_, K), box, K)) continue;
     over.push_back(b);
-    for (int d = 0; d < K; ++d) target[d] = std::max(target[d], int(key.level[d]));
+    for (int d = 0; d < K; ++d) target[d] = std::max(target[d], int(bs.key.level[d]));
   }
   if (dir >= 0) target[dir] = std::max(target[dir], min_level);
+  const int first_new = static_cast<int>(bsplines_.size());
   refine_bsplines(box, target, over);
+  for (int b = first_new; b < static_cast<int>(bsplines_.size()); ++b)
+    if (bsplines_[static_cast<std::size_t>(b)].alive) near.push_back(b);
 }
 
 std::vector<int> Basis::add_split_samples(const IBox& parent, int dir, Coord mid) {
@@ -187,18 +188,19 @@ void Basis::refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& 
 
 void Basis::enforce_locality(const std::vector<int>& candidates) {
   std::vector<int> support_leaves;
+  HolderCache holders;
   for (int b : candidates) {
     const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
     if (!bs.alive) continue;
     support_leaves.clear();
     tree_.leaves_overlapping(support_box(bs.key, degree_, dim()), support_leaves);
     const bool local = std::all_of(bs.coeffs.begin(), bs.coeffs.end(), [&](const Coefficient& c) {
-      return sample_is_local(c.first, support_leaves);
+      return sample_is_local(c.first, support_leaves, holders);
     });
     if (local) continue;
     std::vector<Coefficient> moved = reallocate(bs);
     for (const auto& [k, a] : moved)
-      if (!sample_is_local(k, support_leaves)) {
+      if (!sample_is_local(k, support_leaves, holders)) {
         throw std::logic_error("Basis::refine: reallocation target is not a local sample");
       }
     set_coeffs(b, std::move(moved));

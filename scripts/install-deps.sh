@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs every Debian package the build and the tests need. Idempotent: packages already
+# present are skipped and apt is not touched when nothing is missing. Uses sudo only when not
+# running as root.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential   # gcc, g++, make
+  cmake
+  ninja-build
+  pkg-config
+  googletest        # GoogleTest + GoogleMock sources
+  libgtest-dev
+  libgmock-dev
+  libbenchmark-dev  # Google Benchmark
+  libeigen3-dev
+  clang-format
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds every preset the tests use, and runs every test:
+#   dev     Debug, -Werror: everything must compile warning-free
+#   release the full suite (unit + property tests) and a benchmark smoke run
+#   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
+#   tsan    the tests labelled 'concurrency' under ThreadSanitizer
+set -euo pipefail
+cd "$(dirname "$0")/.."
+JOBS="${JOBS:-$(nproc)}"
+
+scripts/install-deps.sh
+
+step() { printf '\n== %s\n' "$*"; }
+
+step "dev: build (Debug, warnings are errors)"
+cmake --preset dev >/dev/null
+cmake --build --preset dev -j "$JOBS"
+
+step "release: build and run every test"
+cmake --preset release >/dev/null
+cmake --build --preset release -j "$JOBS"
+ctest --preset release -j "$JOBS"
+
+step "release: benchmark smoke run (measures nothing, proves the benchmarks run)"
+./build/release/src/core/core_bench --benchmark_min_time=0.001 >/dev/null
+
+step "asan: ASan + UBSan, every test"
+cmake --preset asan >/dev/null
+cmake --build --preset asan -j "$JOBS"
+ctest --preset asan -j "$JOBS"
+
+step "tsan: ThreadSanitizer, concurrency tests"
+cmake --preset tsan >/dev/null
+cmake --build --preset tsan -j "$JOBS"
+ctest --preset tsan -j "$JOBS" -L concurrency
