@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cadinterp/cadinterp_version.h"
 #include "core/adaptive.h"
 #include "core/compiled_basis.h"
 #include "core/faces.h"
@@ -63,16 +64,26 @@ std::vector<double> random_points(int K, int n, unsigned seed) {
   return p;
 }
 
-double max_error(const Basis& basis, const TestFunction& tf, const std::vector<double>& pts) {
-  const int K = basis.dim();
-  const std::vector<double> lo(static_cast<std::size_t>(K), 0.0), hi(lo.size(), 1.0);
-  const CompiledBasis cb = CompiledBasis::compile(basis, lo, hi);
-  std::vector<double> v(static_cast<std::size_t>(basis.sample_count()));
-  for (int k = 0; k < basis.sample_count(); ++k) {
+CompiledBasis compile_unit(const Basis& basis) {
+  const std::vector<double> lo(static_cast<std::size_t>(basis.dim()), 0.0), hi(lo.size(), 1.0);
+  return CompiledBasis::compile(basis, lo, hi);
+}
+
+// The function's value at every sample of a compiled basis.
+std::vector<double> sample_values(const CompiledBasis& cb, const TestFunction& tf) {
+  std::vector<double> v(static_cast<std::size_t>(cb.sample_count()));
+  for (int k = 0; k < cb.sample_count(); ++k) {
     double x[kMaxDim];
     cb.sample_position(k, x);
     v[static_cast<std::size_t>(k)] = tf.f(x);
   }
+  return v;
+}
+
+double max_error(const Basis& basis, const TestFunction& tf, const std::vector<double>& pts) {
+  const int K = basis.dim();
+  const CompiledBasis cb = compile_unit(basis);
+  const std::vector<double> v = sample_values(cb, tf);
   EvalWorkspace ws = cb.make_workspace();
   double e = 0.0;
   for (std::size_t i = 0; i < pts.size(); i += static_cast<std::size_t>(K))
@@ -94,14 +105,8 @@ Basis uniform_basis(int K, Degree g, int level) {
 // per-element multilinear interpolation of the same sample values.
 std::pair<double, double> tjunction_jumps(const Basis& basis, const TestFunction& tf) {
   const int K = basis.dim();
-  const std::vector<double> lo(static_cast<std::size_t>(K), 0.0), hi(lo.size(), 1.0);
-  const CompiledBasis cb = CompiledBasis::compile(basis, lo, hi);
-  std::vector<double> v(static_cast<std::size_t>(basis.sample_count()));
-  for (int k = 0; k < basis.sample_count(); ++k) {
-    double x[kMaxDim];
-    cb.sample_position(k, x);
-    v[static_cast<std::size_t>(k)] = tf.f(x);
-  }
+  const CompiledBasis cb = compile_unit(basis);
+  const std::vector<double> v = sample_values(cb, tf);
   std::map<int, int> elem;
   for (int e = 0; e < cb.element_count(); ++e)
     elem[basis.tree().leaves()[static_cast<std::size_t>(e)]] = e;
@@ -171,9 +176,9 @@ int main(int argc, char** argv) {
   }
 
   std::printf(
-      "cadinterp core demo: adaptive K-d tree interpolation (max error over %d random "
-      "points)\n\n",
-      points);
+      "cadinterp %d.%d.%d core demo: adaptive K-d tree interpolation (max error over %d "
+      "random points)\n\n",
+      CADINTERP_VERSION_MAJOR, CADINTERP_VERSION_MINOR, CADINTERP_VERSION_PATCH, points);
   std::printf("%-7s %-6s %7s | %8s %10s %9s | %9s %10s | %11s %11s | %7s\n", "func", "basis", "tol",
               "adaptive", "max err", "host", "uniform", "at err", "jump ours", "jump m-lin",
               "time");
