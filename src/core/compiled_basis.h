@@ -36,12 +36,12 @@ class CompiledBasis {
                                const std::vector<double>& hi,
                                const std::vector<bool>* infeasible = nullptr);
 
-  int dim() const { return K_; }
-  Degree degree() const { return degree_; }
-  int element_count() const { return static_cast<int>(elem_term_begin_.size()) - 1; }
-  int sample_count() const { return static_cast<int>(sample_unit_.size()) / K_; }
-  const std::vector<double>& lower() const { return lo_; }
-  const std::vector<double>& upper() const { return hi_; }
+  int dim() const { return p_.K; }
+  Degree degree() const { return p_.degree; }
+  int element_count() const { return static_cast<int>(p_.elem_term_begin.size()) - 1; }
+  int sample_count() const { return static_cast<int>(p_.sample_unit.size()) / p_.K; }
+  const std::vector<double>& lower() const { return p_.lo; }
+  const std::vector<double>& upper() const { return p_.hi; }
 
   /// Sample k's position in real parameter coordinates, written to x (K values).
   void sample_position(int k, double* x) const;
@@ -49,7 +49,7 @@ class CompiledBasis {
   void element_box(int e, double* lo, double* hi) const;
   /// Samples with psi != 0 on element e.
   const int* element_samples(int e, int* count) const;
-  bool element_feasible(int e) const { return feasible_[static_cast<std::size_t>(e)] != 0; }
+  bool element_feasible(int e) const { return p_.elem_feasible[static_cast<std::size_t>(e)] != 0; }
   int max_terms() const { return max_terms_; }
   int max_bsplines() const { return max_bsplines_; }
 
@@ -67,31 +67,47 @@ class CompiledBasis {
   /// locate + eval_element. Returns false (out untouched) when x is outside the domain.
   bool eval(const double* x, EvalWorkspace& ws, bool want_grad, BasisWeights* out) const;
 
+  /// Every array of a compiled basis; what an asset stores (fileformat/cadinterp.fbs, Basis).
+  struct Parts {
+    int K = 0;
+    Degree degree = Degree::Linear;
+    std::vector<double> lo, hi;       ///< K each: the parameter box
+    std::vector<double> sample_unit;  ///< #S by K, unit coordinates
+
+    // Point location: per node the split direction (-1 leaf), the split coordinate in unit
+    // coordinates, the two children (2 per node, always after their parent), and for a leaf
+    // its element index.
+    std::vector<std::int8_t> node_dir;
+    std::vector<double> node_split;
+    std::vector<std::int32_t> node_child;
+    std::vector<std::int32_t> node_elem;
+
+    // Per element e: box (unit; lo..., hi...), feasibility, B-splines
+    // [elem_bs_begin[e], elem_bs_begin[e+1]) with centre and inverse knot spacing per direction,
+    // terms [elem_term_begin[e], elem_term_begin[e+1]) of term_sample. B-spline b (global index)
+    // has coefficients [bs_col_begin[b], bs_col_begin[b+1]) of (col_term, col_value), col_term
+    // indexing its element's terms.
+    std::vector<double> elem_box;  ///< #E by 2K
+    std::vector<std::uint8_t> elem_feasible;
+    std::vector<std::int64_t> elem_bs_begin;      ///< #E + 1
+    std::vector<std::int64_t> elem_term_begin;    ///< #E + 1
+    std::vector<double> bs_centre, bs_inv_width;  ///< #B by K
+    std::vector<std::int64_t> bs_col_begin;       ///< #B + 1
+    std::vector<std::int32_t> term_sample;
+    std::vector<std::int32_t> col_term;
+    std::vector<double> col_value;
+  };
+
+  const Parts& parts() const { return p_; }
+
+  /// Builds a basis from arrays of untrusted origin (an asset file). Every size, index, range
+  /// and value is checked first, so that evaluation can never read out of bounds or loop;
+  /// throws std::invalid_argument naming the first violation.
+  static CompiledBasis from_parts(Parts parts);
+
  private:
-  int K_ = 0;
-  Degree degree_ = Degree::Linear;
-  std::vector<double> lo_, hi_, inv_extent_;
-  std::vector<double> sample_unit_;  // #samples by K
-
-  // Tree for point location: per node the split direction (-1 leaf), the split coordinate in
-  // unit coordinates, the two children, and for a leaf its element index.
-  std::vector<std::int8_t> node_dir_;
-  std::vector<double> node_split_;
-  std::vector<std::int32_t> node_child_;  // 2 per node
-  std::vector<std::int32_t> node_elem_;
-
-  // Per element e: box (unit), B-splines [elem_bs_begin_[e], elem_bs_begin_[e+1]) with centre
-  // and inverse knot spacing per direction, terms [elem_term_begin_[e], ...); B-spline b (global
-  // index) has coefficients [bs_col_begin_[b], bs_col_begin_[b+1]) of (col_term_, col_value_),
-  // col_term_ indexing the element's terms.
-  std::vector<double> elem_box_;  // #E by 2K (lo..., hi...)
-  std::vector<std::uint8_t> feasible_;
-  std::vector<std::int64_t> elem_bs_begin_, elem_term_begin_;
-  std::vector<double> bs_centre_, bs_inv_width_;  // #B(all) by K
-  std::vector<std::int64_t> bs_col_begin_;        // #B(all) + 1
-  std::vector<int> term_sample_;
-  std::vector<std::int32_t> col_term_;
-  std::vector<double> col_value_;
+  Parts p_;
+  std::vector<double> inv_extent_;
   int max_terms_ = 0, max_bsplines_ = 0;
 };
 
