@@ -1,0 +1,189 @@
+#include "format/asset_writer.h"
+
+#include <xxhash.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include "cadinterp_generated.h"
+
+namespace cadinterp::format {
+
+namespace {
+
+[[noreturn]] void bad(const std::string& what) {
+  throw FormatError(Status::InvalidArgument, "write_asset: " + what);
+}
+
+void put_le(std::vector<std::uint8_t>& out, std::size_t at, std::uint64_t v, int bytes) {
+  for (int i = 0; i < bytes; ++i)
+    out[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+
+// Appends blobs to the blob section (no padding) and returns their references.
+class BlobSink {
+ public:
+  explicit BlobSink(std::vector<std::uint8_t>& section) : file_(section) {}
+  fb::BlobRef add(const std::vector<std::uint8_t>& bytes, Codec codec) {
+    const std::uint64_t offset = file_.size();
+    file_.insert(file_.end(), bytes.begin(), bytes.end());
+    return fb::BlobRef(offset, bytes.size(), XXH64(bytes.data(), bytes.size(), 0),
+                       static_cast<fb::Codec>(codec));
+  }
+
+ private:
+  std::vector<std::uint8_t>& file_;
+};
+
+}  // namespace
+
+std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions& o) {
+  if (!c.basis) bad("no basis");
+  const core::CompiledBasis::Parts& p = c.basis->parts();
+  const int K = p.K;
+  if (static_cast<int>(c.parameters.size()) != K) bad("one parameter per basis direction needed");
+  for (int d = 0; d < K; ++d) {
+    const ParameterInfo& pi = c.parameters[static_cast<std::size_t>(d)];
+    if (pi.name.empty()) bad("parameter without a name");
+    if (pi.lower != p.lo[static_cast<std::size_t>(d)] ||
+        pi.upper != p.hi[static_cast<std::size_t>(d)])
+      bad("parameter range differs from the basis domain");
+  }
+  const int E = c.basis->element_count();
+  if (static_cast<int>(c.elements.size()) != E) bad("one ElementData per basis element needed");
+  std::size_t field_values_per_vertex = 0, field_values_per_tet = 0;
+  for (const FieldInfo& f : c.fields) {
+    if (f.name.empty() || f.components < 1 || f.components > kMaxComps) bad("field descriptor");
+    (f.location == FieldLocation::Vertex ? field_values_per_vertex : field_values_per_tet) +=
+        static_cast<std::size_t>(f.components);
+  }
+  for (const RegionInfo& r : c.regions)
+    if (r.name.empty()) bad("boundary region without a name");
+
+  std::vector<std::uint8_t> section;
+  BlobSink sink(section);
+  flatbuffers::FlatBufferBuilder fbb(1 << 16);
+
+  const FloatParams pos_params{o.position_max_abs_error};
+  const FloatParams field_params{o.field_max_abs_error};
+  std::vector<flatbuffers::Offset<fb::ElementMeshes>> elements;
+  for (int e = 0; e < E; ++e) {
+    const ElementData& ed = c.elements[static_cast<std::size_t>(e)];
+    int terms = 0;
+    c.basis->element_samples(e, &terms);
+    const std::size_t nv = ed.vertex_count;
+    const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
+    if (nv == 0) {  // no meshes: only an infeasible element may lack them
+      if (c.basis->element_feasible(e))
+        bad("feasible element " + std::to_string(e) + " without meshes");
+      fb::ElementMeshesBuilder eb(fbb);
+      eb.add_error_estimate(ed.error_estimate);
+      elements.push_back(eb.Finish());
+      continue;
+    }
+    if (ed.tets.size() % 4 || ed.triangles.size() % 3 || ed.triangle_tags.size() != ntri)
+      bad("element " + std::to_string(e) + ": topology array sizes");
+    if (ed.canonical.size() != nv * 3) bad("element " + std::to_string(e) + ": canonical size");
+    if (static_cast<int>(ed.positions.size()) != terms)
+      bad("element " + std::to_string(e) + ": one position array per term needed");
+    const std::size_t field_size = nv * field_values_per_vertex + ntet * field_values_per_tet;
+    if (!(ed.fields.empty() && field_size == 0) && static_cast<int>(ed.fields.size()) != terms)
+      bad("element " + std::to_string(e) + ": one field array per term needed");
+    for (const auto& a : ed.positions)
+      if (a.size() != nv * 3) bad("element " + std::to_string(e) + ": position array size");
+    for (const auto& a : ed.fields)
+      if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
+
+    const Codec tri_codec = o.index_codec;
+    // Draco has no tet codec (SPEC.md): tets fall back to the fast codec.
+    const Codec tet_codec = o.index_codec == Codec::Draco ? Codec::QuantDeltaZstd : o.index_codec;
+    const auto vc = static_cast<std::uint32_t>(nv);
+    const fb::BlobRef tets =
+        sink.add(encode_indices(tet_codec, ed.tets.data(), ntet, 4, vc), tet_codec);
+    const fb::BlobRef tris =
+        sink.add(encode_indices(tri_codec, ed.triangles.data(), ntri, 3, vc), tri_codec);
+    std::vector<std::uint8_t> tag_bytes(ntri * 4);
+    if (ntri) std::memcpy(tag_bytes.data(), ed.triangle_tags.data(), tag_bytes.size());
+    const fb::BlobRef tags = sink.add(tag_bytes, Codec::Raw);
+    const fb::BlobRef canonical = sink.add(
+        encode_floats(Codec::Raw, ed.canonical.data(), nv, 3, nullptr, FloatParams{}), Codec::Raw);
+    std::vector<fb::BlobRef> pos, fields;
+    for (const auto& a : ed.positions)
+      pos.push_back(
+          sink.add(encode_floats(o.float_codec, a.data(), nv, 3, ed.canonical.data(), pos_params),
+                   o.float_codec));
+    for (const auto& a : ed.fields)
+      fields.push_back(
+          sink.add(encode_floats(o.float_codec, a.data(), a.size(), 1, nullptr, field_params),
+                   o.float_codec));
+    const auto pos_v = fbb.CreateVectorOfStructs(pos);
+    const auto field_v = fbb.CreateVectorOfStructs(fields);
+    fb::ElementMeshesBuilder eb(fbb);
+    eb.add_vertex_count(vc);
+    eb.add_tet_count(static_cast<std::uint32_t>(ntet));
+    eb.add_triangle_count(static_cast<std::uint32_t>(ntri));
+    eb.add_tets(&tets);
+    eb.add_triangles(&tris);
+    eb.add_triangle_tags(&tags);
+    eb.add_positions(pos_v);
+    eb.add_fields(field_v);
+    eb.add_error_estimate(ed.error_estimate);
+    eb.add_canonical_positions(&canonical);
+    elements.push_back(eb.Finish());
+  }
+
+  std::vector<flatbuffers::Offset<fb::Parameter>> params;
+  for (const ParameterInfo& pi : c.parameters)
+    params.push_back(
+        fb::CreateParameterDirect(fbb, pi.name.c_str(), pi.unit.c_str(), pi.lower, pi.upper));
+  std::vector<flatbuffers::Offset<fb::FieldDesc>> fields;
+  for (const FieldInfo& f : c.fields)
+    fields.push_back(fb::CreateFieldDescDirect(
+        fbb, f.name.c_str(), static_cast<fb::FieldLocation>(f.location),
+        static_cast<std::uint8_t>(f.components), static_cast<float>(o.field_max_abs_error)));
+  std::vector<flatbuffers::Offset<fb::BoundaryRegion>> regions;
+  for (const RegionInfo& r : c.regions)
+    regions.push_back(
+        fb::CreateBoundaryRegionDirect(fbb, r.name.c_str(), r.kind.c_str(), &r.face_tags));
+  const auto prov = fb::CreateProvenanceDirect(fbb, c.builder_version.c_str(), c.host.c_str(),
+                                               c.options_json.c_str());
+  const auto basis = fb::CreateBasisDirect(
+      fbb, static_cast<std::uint8_t>(K), static_cast<std::uint8_t>(p.degree), &p.sample_unit,
+      &p.node_dir, &p.node_split, &p.node_child, &p.node_elem, &p.elem_box, &p.elem_feasible,
+      &p.elem_bs_begin, &p.elem_term_begin, &p.bs_centre, &p.bs_inv_width, &p.bs_col_begin,
+      &p.term_sample, &p.col_term, &p.col_value);
+  const auto asset = fb::CreateAssetDirect(fbb, &params, basis, &elements, &fields, &regions, prov,
+                                           static_cast<float>(o.position_max_abs_error));
+  fb::FinishAssetBuffer(fbb, asset);
+
+  const std::uint64_t index_offset = kHeaderSize;  // 48: 8-aligned
+  std::vector<std::uint8_t> file(kHeaderSize + fbb.GetSize() + section.size(), 0);
+  std::memcpy(file.data() + kHeaderSize, fbb.GetBufferPointer(), fbb.GetSize());
+  if (!section.empty())
+    std::memcpy(file.data() + kHeaderSize + fbb.GetSize(), section.data(), section.size());
+  std::memcpy(file.data(), kMagic, sizeof kMagic);
+  put_le(file, 8, kFormatMajor, 2);
+  put_le(file, 10, kFormatMinor, 2);
+  put_le(file, 12, kHeaderSize, 4);
+  put_le(file, 16, file.size(), 8);
+  put_le(file, 24, index_offset, 8);
+  put_le(file, 32, fbb.GetSize(), 8);
+  put_le(file, 40, XXH64(fbb.GetBufferPointer(), fbb.GetSize(), 0), 8);
+  return file;
+}
+
+void write_asset_file(const AssetContent& content, const WriteOptions& options,
+                      const std::string& path) {
+  const std::vector<std::uint8_t> bytes = write_asset(content, options);
+  const std::string tmp = path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw FormatError(Status::Io, "cannot create " + tmp);
+  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+  if (std::fclose(f) != 0 || !ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw FormatError(Status::Io, "cannot write " + path);
+  }
+}
+
+}  // namespace cadinterp::format

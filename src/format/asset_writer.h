@@ -1,0 +1,69 @@
+// Writes .cadi assets (internal C++ API; the builder and the asset generator use it).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/compiled_basis.h"
+#include "format/asset_format.h"
+#include "format/codec.h"
+
+namespace cadinterp::format {
+
+struct ParameterInfo {
+  std::string name, unit;
+  double lower = 0.0, upper = 1.0;
+};
+
+enum class FieldLocation : std::uint8_t { Vertex = 0, Tet = 1 };
+
+struct FieldInfo {
+  std::string name;
+  FieldLocation location = FieldLocation::Vertex;
+  int components = 1;  ///< 1..kMaxComps
+};
+
+struct RegionInfo {
+  std::string name, kind;  ///< kind: "fixed", "force", "heat", ...
+  std::vector<std::int32_t> face_tags;
+};
+
+/// One element's meshes. An infeasible element has vertex_count 0 and no arrays.
+struct ElementData {
+  std::uint32_t vertex_count = 0;
+  std::vector<std::uint32_t> tets;            ///< #tets by 4
+  std::vector<std::uint32_t> triangles;       ///< #triangles by 3, outward
+  std::vector<std::int32_t> triangle_tags;    ///< #triangles
+  std::vector<float> canonical;               ///< #V by 3
+  std::vector<std::vector<float>> positions;  ///< per term of the element: #V by 3
+  std::vector<std::vector<float>> fields;     ///< per term: the fields concatenated (empty if none)
+  double error_estimate = 0.0;
+};
+
+struct AssetContent {
+  std::vector<ParameterInfo> parameters;  ///< K, in the basis' direction order
+  const core::CompiledBasis* basis = nullptr;
+  std::vector<FieldInfo> fields;
+  std::vector<RegionInfo> regions;
+  std::vector<ElementData> elements;  ///< one per basis element, in its order
+  std::string builder_version, host, options_json;
+};
+
+struct WriteOptions {
+  Codec float_codec = Codec::QuantDeltaZstd;
+  Codec index_codec = Codec::QuantDeltaZstd;
+  double position_max_abs_error = 0.0;  ///< 0: lossless
+  double field_max_abs_error = 0.0;     ///< 0: lossless
+};
+
+/// Serializes `content` to the bytes of a .cadi file. Throws FormatError(InvalidArgument) when
+/// the content is inconsistent (counts, term counts, parameter ranges against the basis).
+std::vector<std::uint8_t> write_asset(const AssetContent& content, const WriteOptions& options);
+
+/// As write_asset, to `path` (written to `path`.tmp, then renamed, so a crash never leaves a
+/// partial asset under the final name). Throws FormatError(Io) when the file cannot be written.
+void write_asset_file(const AssetContent& content, const WriteOptions& options,
+                      const std::string& path);
+
+}  // namespace cadinterp::format
