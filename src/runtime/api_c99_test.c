@@ -1,0 +1,42 @@
+/* Compiled as C99 with -Wpedantic -Werror: the public header is C-clean, and the library is
+ * callable from C. Checks behaviour that needs no asset file. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cadinterp/cadinterp.h"
+
+static int failures = 0, checks = 0;
+#define CHECK(cond)                                            \
+  do {                                                         \
+    ++checks;                                                  \
+    if (!(cond)) {                                             \
+      fprintf(stderr, "%s:%d: failed: %s\n", __FILE__, __LINE__, #cond); \
+      ++failures;                                              \
+    }                                                          \
+  } while (0)
+
+int main(void) {
+  cadinterp_asset* asset = NULL;
+  static const unsigned char garbage[64] = {1, 2, 3};
+  int major = -1, minor = -1, s;
+
+  CHECK(strcmp(cadinterp_version(), "0.1.0") == 0);
+  CHECK(cadinterp_version_number() == CADINTERP_VERSION_NUMBER);
+  cadinterp_format_version(&major, &minor);
+  CHECK(major == 1 && minor == 0);
+  for (s = CADINTERP_OK; s <= CADINTERP_E_NOT_FOUND; ++s)
+    CHECK(cadinterp_status_string((cadinterp_status)s) != NULL);
+  CHECK(strcmp(cadinterp_status_string((cadinterp_status)999), "unknown status") == 0);
+
+  CHECK(cadinterp_open("/nonexistent/asset.cadi", &asset) == CADINTERP_E_IO);
+  CHECK(asset == NULL);
+  CHECK(strlen(cadinterp_open_error()) > 0);
+  CHECK(cadinterp_open_memory(garbage, sizeof garbage, 0, &asset) == CADINTERP_E_BAD_MAGIC);
+  CHECK(cadinterp_open(NULL, &asset) == CADINTERP_E_INVALID_ARGUMENT);
+  CHECK(cadinterp_dim(NULL) == 0);
+  cadinterp_close(NULL);
+  cadinterp_workspace_destroy(NULL);
+
+  printf("api_c99: %d checks, %d failed\n", checks, failures);
+  return failures == 0 ? 0 : 1;
+}

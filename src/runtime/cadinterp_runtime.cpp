@@ -1,0 +1,597 @@
+// The C ABI of include/cadinterp/cadinterp.h over the asset reader (src/format), the compiled
+// basis (src/core) and the runtime kernels (blend: bandwidth_probe.h, mass properties:
+// mesh_metrics.h). Every exported body runs inside CADINTERP_GUARD, which maps exceptions to
+// status codes: nothing crosses the ABI.
+#include "cadinterp/cadinterp.h"
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "cadinterp_generated.h"
+#include "format/asset_reader.h"
+#include "runtime/bandwidth_probe.h"
+#include "runtime/blend_multi.h"
+#include "runtime/mesh_metrics.h"
+
+using cadinterp::format::DecodedElement;
+
+namespace {
+
+// Least-recently-used cache of decoded elements under a byte budget. Elements are shared_ptrs:
+// a workspace holding one keeps it alive after eviction.
+class ElementCache {
+ public:
+  std::shared_ptr<const DecodedElement> get(int e, const cadinterp::format::AssetReader& reader) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      auto it = map_.find(e);
+      if (it != map_.end()) {
+        lru_.splice(lru_.begin(), lru_, it->second.second);
+        return it->second.first;
+      }
+    }
+    // Decode outside the lock: other threads keep evaluating cached elements meanwhile. Two
+    // threads missing the same element both decode it; the second insert is dropped.
+    auto decoded = std::make_shared<const DecodedElement>(reader.decode_element(e));
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = map_.find(e);
+    if (it != map_.end()) return it->second.first;
+    lru_.push_front(e);
+    map_.emplace(e, std::make_pair(decoded, lru_.begin()));
+    bytes_ += decoded->bytes();
+    evict();
+    return decoded;
+  }
+  void set_budget(std::size_t bytes) {
+    std::lock_guard<std::mutex> lock(mu_);
+    budget_ = bytes;
+    evict();
+  }
+
+ private:
+  void evict() {  // keeps at least the most recent element
+    while (bytes_ > budget_ && lru_.size() > 1) {
+      const int victim = lru_.back();
+      lru_.pop_back();
+      auto it = map_.find(victim);
+      bytes_ -= it->second.first->bytes();
+      map_.erase(it);
+    }
+  }
+  std::mutex mu_;
+  std::size_t budget_ = std::size_t(256) << 20, bytes_ = 0;
+  std::list<int> lru_;
+  std::unordered_map<int,
+                     std::pair<std::shared_ptr<const DecodedElement>, std::list<int>::iterator>>
+      map_;
+};
+
+struct FieldSlot {
+  std::string name;
+  cadinterp_field_location location;
+  int components;
+  double max_abs_error;
+};
+
+struct RegionSlot {
+  std::string name, kind;
+  std::vector<std::int32_t> tags;
+};
+
+thread_local std::string t_open_error;
+
+cadinterp_status to_status(cadinterp::format::Status s) {
+  return static_cast<cadinterp_status>(static_cast<int>(s));
+}
+
+}  // namespace
+
+struct cadinterp_asset {
+  std::unique_ptr<cadinterp::format::AssetReader> reader;
+  std::vector<std::string> names, units;
+  std::vector<FieldSlot> fields;
+  std::vector<RegionSlot> regions;
+  std::string builder_version, host, options;
+  mutable ElementCache cache;
+};
+
+struct cadinterp_workspace {
+  const cadinterp_asset* asset = nullptr;
+  cadinterp::core::EvalWorkspace basis_ws;
+  std::shared_ptr<const DecodedElement> element;  // keeps returned topology alive
+  std::vector<const float*> arrays;
+  std::vector<float> weights;
+  std::vector<float> positions, dpositions;
+  std::vector<std::vector<float>> field_values, field_grads;
+  std::vector<const float*> field_ptrs, field_grad_ptrs;
+  std::vector<double> adjoint;  // #V by 3 scratch for mass-property gradients
+  std::vector<double> dots;     // per term
+  std::string error;
+};
+
+namespace {
+
+cadinterp_status fail(cadinterp_workspace* ws, cadinterp_status s, const std::string& msg) {
+  if (ws) ws->error = msg;
+  return s;
+}
+
+// Every exported body is wrapped once: exceptions become statuses (CONVENTIONS.md).
+#define CADINTERP_GUARD(ws, ...)                                                       \
+  try {                                                                                \
+    __VA_ARGS__                                                                        \
+  } catch (const cadinterp::format::FormatError& e) {                                  \
+    return fail(ws, to_status(e.status), e.what());                                    \
+  } catch (const std::bad_alloc&) {                                                    \
+    return fail(ws, CADINTERP_E_OUT_OF_MEMORY, "out of memory");                       \
+  } catch (const std::exception& e) {                                                  \
+    return fail(ws, CADINTERP_E_INTERNAL, std::string("internal error: ") + e.what()); \
+  } catch (...) {                                                                      \
+    return fail(ws, CADINTERP_E_INTERNAL, "internal error: unknown exception");        \
+  }
+
+cadinterp_status open_with(
+    const std::function<std::unique_ptr<cadinterp::format::AssetReader>()>& make,
+    cadinterp_asset** out) {
+  t_open_error.clear();
+  if (!out) {
+    t_open_error = "out is NULL";
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
+  try {
+    auto a = std::make_unique<cadinterp_asset>();
+    a->reader = make();
+    const cadinterp::fb::Asset& idx = a->reader->index();
+    for (const auto* p : *idx.parameters()) {
+      a->names.push_back(p->name()->str());
+      a->units.push_back(p->unit() ? p->unit()->str() : "");
+    }
+    if (idx.fields())
+      for (const auto* f : *idx.fields())
+        a->fields.push_back({f->name()->str(),
+                             f->location() == cadinterp::fb::FieldLocation::Tet
+                                 ? CADINTERP_PER_TET
+                                 : CADINTERP_PER_VERTEX,
+                             f->components(), f->max_abs_error()});
+    if (idx.regions())
+      for (const auto* r : *idx.regions()) {
+        RegionSlot s{r->name()->str(), r->kind() ? r->kind()->str() : "", {}};
+        if (r->face_tags()) s.tags.assign(r->face_tags()->begin(), r->face_tags()->end());
+        a->regions.push_back(std::move(s));
+      }
+    if (const auto* p = idx.provenance()) {
+      a->builder_version = p->builder_version() ? p->builder_version()->str() : "";
+      a->host = p->host() ? p->host()->str() : "";
+      a->options = p->options() ? p->options()->str() : "";
+    }
+    *out = a.release();
+    return CADINTERP_OK;
+  } catch (const cadinterp::format::FormatError& e) {
+    t_open_error = e.what();
+    return to_status(e.status);
+  } catch (const std::bad_alloc&) {
+    t_open_error = "out of memory";
+    return CADINTERP_E_OUT_OF_MEMORY;
+  } catch (const std::exception& e) {
+    t_open_error = std::string("internal error: ") + e.what();
+    return CADINTERP_E_INTERNAL;
+  } catch (...) {
+    t_open_error = "internal error: unknown exception";
+    return CADINTERP_E_INTERNAL;
+  }
+}
+
+// Offset of field f in an element's concatenated field array (fields in index order).
+std::size_t field_offset(const cadinterp_asset& a, int f, std::size_t nv, std::size_t nt) {
+  std::size_t off = 0;
+  for (int j = 0; j < f; ++j)
+    off += (a.fields[static_cast<std::size_t>(j)].location == CADINTERP_PER_VERTEX ? nv : nt) *
+           static_cast<std::size_t>(a.fields[static_cast<std::size_t>(j)].components);
+  return off;
+}
+
+std::size_t field_size(const cadinterp_asset& a, int f, std::size_t nv, std::size_t nt) {
+  const FieldSlot& s = a.fields[static_cast<std::size_t>(f)];
+  return (s.location == CADINTERP_PER_VERTEX ? nv : nt) * static_cast<std::size_t>(s.components);
+}
+
+// Shared front half of eval/grad/vjp/properties: argument checks, locate, basis weights, the
+// element's meshes. Returns OK with ws->element set and w filled.
+cadinterp_status prepare(cadinterp_workspace* ws, const double* x, const int* fields,
+                         int field_count, bool want_grad, cadinterp::core::BasisWeights* w) {
+  if (!x) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "x is NULL");
+  if (field_count < 0 || (field_count > 0 && !fields))
+    return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "fields is NULL or field_count negative");
+  const cadinterp_asset& a = *ws->asset;
+  for (int i = 0; i < field_count; ++i)
+    if (fields[i] < 0 || fields[i] >= static_cast<int>(a.fields.size()))
+      return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "field index out of range");
+  const cadinterp::core::CompiledBasis& basis = a.reader->basis();
+  const int e = basis.locate(x);
+  if (e < 0) return fail(ws, CADINTERP_E_OUTSIDE_DOMAIN, "x is outside the parameter box");
+  if (!basis.element_feasible(e))
+    return fail(
+        ws, CADINTERP_E_INFEASIBLE,
+        "x lies in element " + std::to_string(e) + ", which depends on an infeasible sample");
+  basis.eval_element(e, x, ws->basis_ws, want_grad, w);
+  ws->element = a.cache.get(e, *a.reader);
+  return CADINTERP_OK;
+}
+
+// out = sum_t weight_t * arrays_t, the blend the bandwidth probe measures.
+void blend(cadinterp_workspace* ws, const double* weight, std::size_t offset, std::size_t n,
+           bool positions, float* out) {
+  const DecodedElement& d = *ws->element;
+  const std::size_t terms = positions ? d.positions.size() : d.fields.size();
+  ws->arrays.resize(terms);
+  ws->weights.resize(terms);
+  for (std::size_t t = 0; t < terms; ++t) {
+    ws->arrays[t] = (positions ? d.positions[t].data() : d.fields[t].data()) + offset;
+    ws->weights[t] = static_cast<float>(weight[t]);
+  }
+  cadinterp::runtime::blend_arrays(ws->arrays.data(), ws->weights.data(), static_cast<int>(terms),
+                                   n, out);
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* cadinterp_version(void) {
+#define CADINTERP_STR2(x) #x
+#define CADINTERP_STR(x) CADINTERP_STR2(x)
+  return CADINTERP_STR(CADINTERP_VERSION_MAJOR) "." CADINTERP_STR(
+      CADINTERP_VERSION_MINOR) "." CADINTERP_STR(CADINTERP_VERSION_PATCH);
+}
+
+unsigned cadinterp_version_number(void) { return CADINTERP_VERSION_NUMBER; }
+
+void cadinterp_format_version(int* major, int* minor) {
+  if (major) *major = cadinterp::format::kFormatMajor;
+  if (minor) *minor = cadinterp::format::kFormatMinor;
+}
+
+const char* cadinterp_status_string(cadinterp_status status) {
+  if (status == CADINTERP_E_NOT_FOUND) return "not found";
+  if (status < CADINTERP_OK || status > CADINTERP_E_INTERNAL) return "unknown status";
+  return cadinterp::format::status_name(static_cast<cadinterp::format::Status>(status));
+}
+
+cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out) {
+  if (!path) {
+    t_open_error = "path is NULL";
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
+  return open_with([&] { return cadinterp::format::AssetReader::open_file(path); }, out);
+}
+
+cadinterp_status cadinterp_open_memory(const void* data, size_t size, int copy,
+                                       cadinterp_asset** out) {
+  if (!data) {
+    t_open_error = "data is NULL";
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
+  return open_with(
+      [&] { return cadinterp::format::AssetReader::open_memory(data, size, copy != 0); }, out);
+}
+
+const char* cadinterp_open_error(void) { return t_open_error.c_str(); }
+
+void cadinterp_close(cadinterp_asset* asset) { delete asset; }
+
+int cadinterp_dim(const cadinterp_asset* a) { return a ? a->reader->basis().dim() : 0; }
+int cadinterp_degree(const cadinterp_asset* a) {
+  return a ? static_cast<int>(a->reader->basis().degree()) : 0;
+}
+int cadinterp_element_count(const cadinterp_asset* a) {
+  return a ? a->reader->basis().element_count() : 0;
+}
+
+cadinterp_status cadinterp_asset_format(const cadinterp_asset* a, int* major, int* minor) {
+  if (!a || !major || !minor) return CADINTERP_E_INVALID_ARGUMENT;
+  *major = cadinterp::format::kFormatMajor;
+  *minor = a->reader->format_minor();
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_parameter(const cadinterp_asset* a, int i,
+                                     cadinterp_parameter_info* out) {
+  if (!a || !out || i < 0 || i >= static_cast<int>(a->names.size()))
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const auto& p = a->reader->basis().parts();
+  out->name = a->names[static_cast<std::size_t>(i)].c_str();
+  out->unit = a->units[static_cast<std::size_t>(i)].c_str();
+  out->lower = p.lo[static_cast<std::size_t>(i)];
+  out->upper = p.hi[static_cast<std::size_t>(i)];
+  return CADINTERP_OK;
+}
+
+int cadinterp_field_count(const cadinterp_asset* a) {
+  return a ? static_cast<int>(a->fields.size()) : 0;
+}
+
+cadinterp_status cadinterp_field(const cadinterp_asset* a, int i, cadinterp_field_info* out) {
+  if (!a || !out || i < 0 || i >= static_cast<int>(a->fields.size()))
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const FieldSlot& f = a->fields[static_cast<std::size_t>(i)];
+  *out = {f.name.c_str(), f.location, f.components, f.max_abs_error};
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_find_field(const cadinterp_asset* a, const char* name, int* index) {
+  if (!a || !name || !index) return CADINTERP_E_INVALID_ARGUMENT;
+  for (std::size_t i = 0; i < a->fields.size(); ++i)
+    if (a->fields[i].name == name) {
+      *index = static_cast<int>(i);
+      return CADINTERP_OK;
+    }
+  return CADINTERP_E_NOT_FOUND;
+}
+
+int cadinterp_region_count(const cadinterp_asset* a) {
+  return a ? static_cast<int>(a->regions.size()) : 0;
+}
+
+cadinterp_status cadinterp_region(const cadinterp_asset* a, int i, cadinterp_region_info* out) {
+  if (!a || !out || i < 0 || i >= static_cast<int>(a->regions.size()))
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const RegionSlot& r = a->regions[static_cast<std::size_t>(i)];
+  *out = {r.name.c_str(), r.kind.c_str(), r.tags.data(), static_cast<int>(r.tags.size())};
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_get_provenance(const cadinterp_asset* a, cadinterp_provenance* out) {
+  if (!a || !out) return CADINTERP_E_INVALID_ARGUMENT;
+  *out = {a->builder_version.c_str(), a->host.c_str(), a->options.c_str()};
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_locate(const cadinterp_asset* a, const double* x, int* element,
+                                  int* feasible) {
+  if (!a || !x || !element) return CADINTERP_E_INVALID_ARGUMENT;
+  const int e = a->reader->basis().locate(x);
+  if (e < 0) return CADINTERP_E_OUTSIDE_DOMAIN;
+  *element = e;
+  if (feasible) *feasible = a->reader->basis().element_feasible(e) ? 1 : 0;
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a, const double* x,
+                                          double* error) {
+  if (!a || !x || !error) return CADINTERP_E_INVALID_ARGUMENT;
+  const int e = a->reader->basis().locate(x);
+  if (e < 0) return CADINTERP_E_OUTSIDE_DOMAIN;
+  *error =
+      a->reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e))->error_estimate();
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_set_cache_budget(cadinterp_asset* a, size_t bytes) {
+  if (!a) return CADINTERP_E_INVALID_ARGUMENT;
+  CADINTERP_GUARD(nullptr, {
+    a->cache.set_budget(bytes);
+    return CADINTERP_OK;
+  })
+}
+
+cadinterp_status cadinterp_workspace_create(const cadinterp_asset* a, cadinterp_workspace** out) {
+  if (!a || !out) return CADINTERP_E_INVALID_ARGUMENT;
+  CADINTERP_GUARD(nullptr, {
+    auto ws = std::make_unique<cadinterp_workspace>();
+    ws->asset = a;
+    ws->basis_ws = a->reader->basis().make_workspace();
+    *out = ws.release();
+    return CADINTERP_OK;
+  })
+}
+
+void cadinterp_workspace_destroy(cadinterp_workspace* ws) { delete ws; }
+
+const char* cadinterp_workspace_error(const cadinterp_workspace* ws) {
+  return ws ? ws->error.c_str() : "";
+}
+
+cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x, const int* fields,
+                                int field_count, cadinterp_mesh* out) {
+  if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
+  if (!out) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out is NULL");
+  CADINTERP_GUARD(ws, {
+    cadinterp::core::BasisWeights w;
+    const cadinterp_status s = prepare(ws, x, fields, field_count, false, &w);
+    if (s != CADINTERP_OK) return s;
+    const DecodedElement& d = *ws->element;
+    const std::size_t nv = d.vertex_count, nt = d.tets.size() / 4;
+    ws->positions.resize(nv * 3);
+    blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
+    ws->field_values.resize(static_cast<std::size_t>(field_count));
+    ws->field_ptrs.resize(static_cast<std::size_t>(field_count));
+    for (int i = 0; i < field_count; ++i) {
+      const std::size_t n = field_size(*ws->asset, fields[i], nv, nt);
+      auto& dst = ws->field_values[static_cast<std::size_t>(i)];
+      dst.resize(n);
+      blend(ws, w.psi, field_offset(*ws->asset, fields[i], nv, nt), n, false, dst.data());
+      ws->field_ptrs[static_cast<std::size_t>(i)] = dst.data();
+    }
+    out->element = w.element;
+    out->vertex_count = d.vertex_count;
+    out->tet_count = static_cast<std::uint32_t>(nt);
+    out->triangle_count = static_cast<std::uint32_t>(d.triangles.size() / 3);
+    out->tets = d.tets.data();
+    out->triangles = d.triangles.data();
+    out->triangle_tags = d.triangle_tags.data();
+    out->positions = ws->positions.data();
+    out->fields = ws->field_ptrs.data();
+    ws->error.clear();
+    return CADINTERP_OK;
+  })
+}
+
+cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x, const int* fields,
+                                int field_count, cadinterp_mesh_grad* out) {
+  if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
+  if (!out) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out is NULL");
+  CADINTERP_GUARD(ws, {
+    cadinterp::core::BasisWeights w;
+    const cadinterp_status s = prepare(ws, x, fields, field_count, true, &w);
+    if (s != CADINTERP_OK) return s;
+    const DecodedElement& d = *ws->element;
+    const std::size_t nv = d.vertex_count, nt = d.tets.size() / 4;
+    const int K = ws->asset->reader->basis().dim();
+    // One pass per array family: outputs are the value (weights psi) and the K derivatives
+    // (weights dpsi/dx_k), so every stored array is read once (blend_multi.h).
+    const std::size_t nterm = static_cast<std::size_t>(w.count);
+    ws->weights.resize((static_cast<std::size_t>(K) + 1) * nterm);
+    for (std::size_t t = 0; t < nterm; ++t) ws->weights[t] = static_cast<float>(w.psi[t]);
+    for (std::size_t i = 0; i < static_cast<std::size_t>(K) * nterm; ++i)
+      ws->weights[nterm + i] = static_cast<float>(w.dpsi[i]);
+    ws->positions.resize(nv * 3);
+    ws->dpositions.resize(static_cast<std::size_t>(K) * nv * 3);
+    float* outs[cadinterp::core::kMaxDim + 1];
+    outs[0] = ws->positions.data();
+    for (int k = 0; k < K; ++k)
+      outs[k + 1] = ws->dpositions.data() + static_cast<std::size_t>(k) * nv * 3;
+    ws->arrays.resize(nterm);
+    for (std::size_t t = 0; t < nterm; ++t) ws->arrays[t] = d.positions[t].data();
+    cadinterp::runtime::blend_arrays_multi(ws->arrays.data(), ws->weights.data(), w.count, nv * 3,
+                                           K + 1, outs);
+    ws->field_grads.resize(static_cast<std::size_t>(field_count));
+    ws->field_grad_ptrs.resize(static_cast<std::size_t>(field_count));
+    for (int i = 0; i < field_count; ++i) {
+      const std::size_t n = field_size(*ws->asset, fields[i], nv, nt);
+      const std::size_t off = field_offset(*ws->asset, fields[i], nv, nt);
+      auto& dst = ws->field_grads[static_cast<std::size_t>(i)];
+      dst.resize(static_cast<std::size_t>(K) * n);
+      for (int k = 0; k < K; ++k) outs[k] = dst.data() + static_cast<std::size_t>(k) * n;
+      for (std::size_t t = 0; t < nterm; ++t) ws->arrays[t] = d.fields[t].data() + off;
+      cadinterp::runtime::blend_arrays_multi(ws->arrays.data(), ws->weights.data() + nterm, w.count,
+                                             n, K, outs);
+      ws->field_grad_ptrs[static_cast<std::size_t>(i)] = dst.data();
+    }
+    out->element = w.element;
+    out->vertex_count = d.vertex_count;
+    out->positions = ws->positions.data();
+    out->dpositions = ws->dpositions.data();
+    out->dfields = ws->field_grad_ptrs.data();
+    ws->error.clear();
+    return CADINTERP_OK;
+  })
+}
+
+cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const float* dF_dpositions,
+                               const int* fields, const float* const* dF_dfields, int field_count,
+                               double* dF_dx) {
+  if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
+  if (!dF_dx) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "dF_dx is NULL");
+  CADINTERP_GUARD(ws, {
+    cadinterp::core::BasisWeights w;
+    const cadinterp_status s = prepare(ws, x, fields, field_count, true, &w);
+    if (s != CADINTERP_OK) return s;
+    const DecodedElement& d = *ws->element;
+    const std::size_t nv = d.vertex_count, nt = d.tets.size() / 4;
+    const int K = ws->asset->reader->basis().dim();
+    // dF/dx_k = sum_t dpsi_t/dx_k <dF/dP, p_t>: one dot product per term (Eq. 13 contracted).
+    double out[cadinterp::core::kMaxDim] = {};
+    for (int t = 0; t < w.count; ++t) {
+      double dot = 0.0;
+      if (dF_dpositions) {
+        const float* p = d.positions[static_cast<std::size_t>(t)].data();
+        for (std::size_t i = 0; i < nv * 3; ++i) dot += double(dF_dpositions[i]) * p[i];
+      }
+      for (int f = 0; dF_dfields && f < field_count; ++f) {
+        const float* g = dF_dfields[f];
+        if (!g) continue;
+        const float* v = d.fields[static_cast<std::size_t>(t)].data() +
+                         field_offset(*ws->asset, fields[f], nv, nt);
+        const std::size_t n = field_size(*ws->asset, fields[f], nv, nt);
+        for (std::size_t i = 0; i < n; ++i) dot += double(g[i]) * v[i];
+      }
+      for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dot;
+    }
+    std::memcpy(dF_dx, out, sizeof(double) * static_cast<std::size_t>(K));
+    ws->error.clear();
+    return CADINTERP_OK;
+  })
+}
+
+cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double* x, double density,
+                                           const double* direction, cadinterp_properties* out,
+                                           cadinterp_properties* grad) {
+  if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
+  if (!out || !direction) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out or direction is NULL");
+  if (!std::isfinite(density)) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "density not finite");
+  CADINTERP_GUARD(ws, {
+    cadinterp::core::BasisWeights w;
+    const cadinterp_status s = prepare(ws, x, nullptr, 0, grad != nullptr, &w);
+    if (s != CADINTERP_OK) return s;
+    const DecodedElement& d = *ws->element;
+    const std::size_t nv = d.vertex_count;
+    ws->positions.resize(nv * 3);
+    blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
+    const cadinterp::runtime::TetMeshView mesh{ws->positions.data(), nv,
+                                               d.tets.data(),        d.tets.size() / 4,
+                                               d.triangles.data(),   d.triangles.size() / 3};
+    cadinterp::runtime::MassPropertiesOptions opt;
+    opt.density = density;
+    for (int c = 0; c < 3; ++c) opt.direction[c] = direction[c];
+    const cadinterp::runtime::MassProperties mp = cadinterp::runtime::mass_properties(mesh, opt);
+    auto store = [](const cadinterp::runtime::MassProperties& m, cadinterp_properties* o) {
+      o->volume = m.volume;
+      o->mass = m.mass;
+      o->area = m.area;
+      o->frontal_area = m.frontal_area;
+      std::memcpy(o->centroid, m.centroid, sizeof o->centroid);
+      std::memcpy(o->inertia, m.inertia, sizeof o->inertia);
+    };
+    cadinterp_properties result;
+    store(mp, &result);
+    if (grad) {
+      // For each of the 18 outputs: its gradient dO/dV (one reverse pass over the mesh), then
+      // dO/dx_k = sum_t dpsi_t/dx_k <dO/dV, p_t> (Eq. 13 contracted).
+      const int K = ws->asset->reader->basis().dim();
+      std::vector<cadinterp_properties> g(static_cast<std::size_t>(K));
+      ws->adjoint.resize(nv * 3);
+      for (int o = 0; o < 16; ++o) {
+        cadinterp::runtime::MassPropertiesBar bar;
+        double* slot[16] = {&bar.volume,      &bar.mass,        &bar.area,        &bar.frontal_area,
+                            &bar.centroid[0], &bar.centroid[1], &bar.centroid[2], &bar.inertia[0],
+                            &bar.inertia[1],  &bar.inertia[2],  &bar.inertia[3],  &bar.inertia[4],
+                            &bar.inertia[5],  &bar.inertia[6],  &bar.inertia[7],  &bar.inertia[8]};
+        *slot[o] = 1.0;
+        std::fill(ws->adjoint.begin(), ws->adjoint.end(), 0.0);
+        cadinterp::runtime::mass_properties_vjp(mesh, opt, mp, bar, ws->adjoint.data());
+        ws->dots.assign(static_cast<std::size_t>(w.count), 0.0);
+        for (int t = 0; t < w.count; ++t) {
+          const float* p = d.positions[static_cast<std::size_t>(t)].data();
+          double dot = 0.0;
+          for (std::size_t i = 0; i < nv * 3; ++i) dot += ws->adjoint[i] * p[i];
+          ws->dots[static_cast<std::size_t>(t)] = dot;
+        }
+        for (int k = 0; k < K; ++k) {
+          double sum = 0.0;
+          for (int t = 0; t < w.count; ++t)
+            sum += w.dpsi[k * w.count + t] * ws->dots[static_cast<std::size_t>(t)];
+          cadinterp_properties& gk = g[static_cast<std::size_t>(k)];
+          double* dst[16] = {&gk.volume,      &gk.mass,        &gk.area,        &gk.frontal_area,
+                             &gk.centroid[0], &gk.centroid[1], &gk.centroid[2], &gk.inertia[0],
+                             &gk.inertia[1],  &gk.inertia[2],  &gk.inertia[3],  &gk.inertia[4],
+                             &gk.inertia[5],  &gk.inertia[6],  &gk.inertia[7],  &gk.inertia[8]};
+          *dst[o] = sum;
+        }
+      }
+      std::memcpy(grad, g.data(), sizeof(cadinterp_properties) * static_cast<std::size_t>(K));
+    }
+    *out = result;
+    ws->error.clear();
+    return CADINTERP_OK;
+  })
+}
+
+}  // extern "C"

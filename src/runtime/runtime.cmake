@@ -1,0 +1,50 @@
+# libcadinterp: the C ABI. Only CADINTERP_API symbols are exported (visibility preset hidden);
+# the static internals (core, format, codecs, kernels) are linked in privately.
+add_library(cadinterp SHARED ${CMAKE_CURRENT_LIST_DIR}/cadinterp_runtime.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/blend_multi.cpp)
+target_include_directories(cadinterp PUBLIC ${PROJECT_SOURCE_DIR}/include)
+target_compile_definitions(cadinterp PRIVATE CADINTERP_BUILDING_LIBRARY)
+target_link_libraries(cadinterp PRIVATE cadinterp_format cadinterp_runtime_kernels cadinterp_warnings)
+# ABI version (soname) is kept apart from the library and format versions (CONVENTIONS.md).
+set_target_properties(cadinterp PROPERTIES VERSION ${PROJECT_VERSION} SOVERSION 0
+  LINK_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
+target_link_options(cadinterp PRIVATE -Wl,--version-script=${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
+
+if(CADINTERP_BUILD_TESTS)
+  # A C99 translation unit that includes the public headers and calls the library.
+  add_executable(runtime_api_c99_test ${CMAKE_CURRENT_LIST_DIR}/api_c99_test.c)
+  set_target_properties(runtime_api_c99_test PROPERTIES C_STANDARD 99 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
+  target_compile_options(runtime_api_c99_test PRIVATE -Wall -Wextra -Wpedantic -Werror)
+  target_link_libraries(runtime_api_c99_test PRIVATE cadinterp)
+  add_test(NAME runtime_api_c99 COMMAND runtime_api_c99_test)
+  set_tests_properties(runtime_api_c99 PROPERTIES LABELS unit)
+
+  cadinterp_add_test(runtime_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_test.cpp
+    LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
+  cadinterp_add_test(runtime_alloc_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_alloc_test.cpp
+    LIBS cadinterp cadinterp_format)
+  cadinterp_add_test(runtime_blend_tests ${CMAKE_CURRENT_LIST_DIR}/blend_multi_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/blend_multi.cpp LIBS cadinterp_runtime_kernels)
+  cadinterp_add_test(runtime_thread_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_thread_test.cpp
+    LIBS cadinterp cadinterp_format Threads::Threads LABELS concurrency)
+endif()
+
+if(CADINTERP_BUILD_TESTS)
+  # The shared library exports the C ABI and nothing else.
+  add_test(NAME runtime_exports
+           COMMAND bash -c "bad=$(nm -D --defined-only $<TARGET_FILE:cadinterp> | awk '{print $3}' | grep -v -e '^cadinterp_' -e '^CADINTERP_0$'); if [ -n \"$bad\" ]; then echo \"unexpected exports: $bad\"; exit 1; fi; echo \"exports: $(nm -D --defined-only $<TARGET_FILE:cadinterp> | grep -c ' cadinterp_') cadinterp_* symbols\"")
+  set_tests_properties(runtime_exports PROPERTIES LABELS unit)
+endif()
+
+if(CADINTERP_BUILD_BENCHMARKS)
+  cadinterp_add_benchmark(runtime_bench ${CMAKE_CURRENT_LIST_DIR}/runtime_bench.cpp
+    LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
+endif()
+
+# libFuzzer target (clang only): configure with -DCADINTERP_FUZZ=ON (scripts/fuzz.sh does).
+if(CADINTERP_FUZZ)
+  add_executable(fuzz_open_eval ${CMAKE_CURRENT_LIST_DIR}/fuzz_open_eval.cpp)
+  # Links the format library too, for the generated index accessors (checksum fix-up).
+  target_link_libraries(fuzz_open_eval PRIVATE cadinterp cadinterp_format PkgConfig::XXHASH)
+  target_link_options(fuzz_open_eval PRIVATE -fsanitize=fuzzer)
+endif()

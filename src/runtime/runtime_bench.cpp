@@ -1,0 +1,190 @@
+// Runtime performance against the in-repo bandwidth probe, measured in the same run
+// (issue targets: eval <= 1.2x probe, eval+grad <= 1.5x eval, one scalar field <= 1.4x, cell
+// switch <= 5 ms with the fast codec, open independent of blob bytes).
+//
+// Fixture: the synthetic box at 80 x 40 x 30 cells (103,361 vertices, 576,000 tets), K = 3,
+// linear, refined once in every direction: 8 elements of 8 samples each. The probe blends the
+// same 8 decoded position arrays the eval blends (blend_arrays, bandwidth_probe.h).
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include "cadinterp/cadinterp.h"
+#include "format/asset_reader.h"
+#include "format/synthetic_asset.h"
+#include "runtime/bandwidth_probe.h"
+
+namespace {
+
+using namespace cadinterp;
+
+struct Big {
+  std::vector<std::uint8_t> bytes;  // fast codec, lossless
+  std::vector<std::uint8_t> draco, meshopt, raw;
+  std::string path, small_path;
+  cadinterp_asset* asset = nullptr;
+};
+
+const Big& big() {
+  static const std::unique_ptr<Big> b = [] {
+    auto r = std::make_unique<Big>();
+    format::SyntheticSpec spec;
+    spec.K = 3;
+    spec.cells[0] = 80;
+    spec.cells[1] = 40;
+    spec.cells[2] = 30;
+    spec.fields = true;
+    spec.max_samples = 27;
+    spec.tolerance = 1e9;
+    spec.check_face_centres = false;
+    const format::SyntheticAsset a = format::make_synthetic_asset(spec);
+    format::WriteOptions o;
+    r->bytes = format::write_asset(a.content, o);
+    o.float_codec = o.index_codec = format::Codec::Meshopt;
+    r->meshopt = format::write_asset(a.content, o);
+    o.float_codec = o.index_codec = format::Codec::Draco;
+    r->draco = format::write_asset(a.content, o);
+    o.float_codec = o.index_codec = format::Codec::Raw;
+    r->raw = format::write_asset(a.content, o);
+    r->path = (std::filesystem::temp_directory_path() / "cadinterp_bench_big.cadi").string();
+    std::ofstream(r->path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(r->bytes.data()),
+               static_cast<std::streamsize>(r->bytes.size()));
+    spec.cells[0] = 2;
+    spec.cells[1] = spec.cells[2] = 1;
+    const auto small = format::write_asset(format::make_synthetic_asset(spec).content, {});
+    r->small_path =
+        (std::filesystem::temp_directory_path() / "cadinterp_bench_small.cadi").string();
+    std::ofstream(r->small_path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(small.data()),
+               static_cast<std::streamsize>(small.size()));
+    if (cadinterp_open(r->path.c_str(), &r->asset) != CADINTERP_OK) std::abort();
+    return r;
+  }();
+  return *b;
+}
+
+const double kX[3] = {0.3, 0.6, 0.2};
+
+// Seconds per call of the probe on the arrays the eval at kX blends.
+double probe_seconds() {
+  static const double s = [] {
+    const auto reader =
+        format::AssetReader::open_memory(big().bytes.data(), big().bytes.size(), false);
+    const int e = reader->basis().locate(kX);
+    const format::DecodedElement d = reader->decode_element(e);
+    std::vector<const float*> arrays;
+    std::vector<float> w;
+    for (const auto& p : d.positions) {
+      arrays.push_back(p.data());
+      w.push_back(1.0f / static_cast<float>(d.positions.size()));
+    }
+    std::vector<float> out(d.positions[0].size());
+    const int reps = 200;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < reps; ++i) {
+      runtime::blend_arrays(arrays.data(), w.data(), static_cast<int>(arrays.size()), out.size(),
+                            out.data());
+      benchmark::DoNotOptimize(out.data());
+    }
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+  }();
+  return s;
+}
+
+// Runs `call` in the benchmark loop and reports time per call relative to the probe.
+template <class F>
+void against_probe(benchmark::State& state, F&& call) {
+  call();  // warm: the element is decoded and cached
+  const auto t0 = std::chrono::steady_clock::now();
+  for (auto _ : state) call();
+  const double per = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() /
+                     static_cast<double>(state.iterations());
+  state.counters["x_probe"] = per / probe_seconds();
+  state.counters["probe_us"] = probe_seconds() * 1e6;
+}
+
+void BM_Probe(benchmark::State& state) {
+  for (auto _ : state) benchmark::DoNotOptimize(probe_seconds());
+  state.counters["probe_us"] = probe_seconds() * 1e6;
+  state.counters["GBps"] = 9.0 * 4.0 * 3.0 * 103361.0 / probe_seconds() / 1e9;  // 8 read + 1 write
+}
+
+void BM_EvalWarm(benchmark::State& state) {
+  cadinterp_workspace* ws = nullptr;
+  cadinterp_workspace_create(big().asset, &ws);
+  cadinterp_mesh m;
+  against_probe(state, [&] { benchmark::DoNotOptimize(cadinterp_eval(ws, kX, nullptr, 0, &m)); });
+  cadinterp_workspace_destroy(ws);
+}
+
+void BM_EvalScalarField(benchmark::State& state) {
+  cadinterp_workspace* ws = nullptr;
+  cadinterp_workspace_create(big().asset, &ws);
+  cadinterp_mesh m;
+  const int field = 0;  // temperature, per vertex
+  against_probe(state, [&] { benchmark::DoNotOptimize(cadinterp_eval(ws, kX, &field, 1, &m)); });
+  cadinterp_workspace_destroy(ws);
+}
+
+void BM_EvalPlusGrad(benchmark::State& state) {
+  cadinterp_workspace* ws = nullptr;
+  cadinterp_workspace_create(big().asset, &ws);
+  cadinterp_mesh m;
+  cadinterp_mesh_grad g;
+  (void)m;
+  // cadinterp_grad returns the positions and their K derivatives in one pass.
+  against_probe(state, [&] { benchmark::DoNotOptimize(cadinterp_grad(ws, kX, nullptr, 0, &g)); });
+  cadinterp_workspace_destroy(ws);
+}
+
+void BM_Vjp(benchmark::State& state) {
+  cadinterp_workspace* ws = nullptr;
+  cadinterp_workspace_create(big().asset, &ws);
+  std::vector<float> adj(3 * 103361, 1.0f);
+  double out[3];
+  against_probe(state, [&] {
+    benchmark::DoNotOptimize(cadinterp_vjp(ws, kX, adj.data(), nullptr, nullptr, 0, out));
+  });
+  cadinterp_workspace_destroy(ws);
+}
+
+// Cell switch: decode all meshes of one element (8 samples x 103k vertices + topology).
+void BM_CellSwitch(benchmark::State& state) {
+  const Big& b = big();
+  const std::vector<std::uint8_t>* bytes[4] = {&b.raw, &b.bytes, &b.meshopt, &b.draco};
+  const auto& file = *bytes[state.range(0)];
+  const auto reader = format::AssetReader::open_memory(file.data(), file.size(), false);
+  const int e = reader->basis().locate(kX);
+  for (auto _ : state) benchmark::DoNotOptimize(reader->decode_element(e));
+  state.counters["asset_MB"] = static_cast<double>(file.size()) / 1e6;
+  state.counters["ratio_to_raw"] =
+      static_cast<double>(file.size()) / static_cast<double>(b.raw.size());
+  state.SetLabel(format::codec_name(static_cast<format::Codec>(state.range(0))));
+}
+
+void BM_Open(benchmark::State& state) {
+  const std::string& path = state.range(0) ? big().path : big().small_path;
+  for (auto _ : state) {
+    cadinterp_asset* a = nullptr;
+    if (cadinterp_open(path.c_str(), &a) != CADINTERP_OK) state.SkipWithError("open failed");
+    cadinterp_close(a);
+  }
+  state.counters["file_MB"] = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
+}
+
+BENCHMARK(BM_Probe)->Unit(benchmark::kMicrosecond)->Iterations(1);
+BENCHMARK(BM_EvalWarm)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EvalScalarField)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EvalPlusGrad)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Vjp)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CellSwitch)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Open)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,319 @@
+// The C ABI end to end on synthetic assets: queries, eval against the basis and against the
+// analytic host, gradients against finite differences, the vector-Jacobian product, mass
+// properties and their gradients, and the failure statuses.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "cadinterp/cadinterp.h"
+#include "format/synthetic_asset.h"
+#include "runtime/mesh_metrics.h"
+
+namespace {
+
+using cadinterp::format::SyntheticSpec;
+
+struct Opened {
+  std::vector<std::uint8_t> bytes;
+  cadinterp::format::SyntheticAsset synthetic;
+  cadinterp_asset* asset = nullptr;
+  cadinterp_workspace* ws = nullptr;
+  ~Opened() {
+    cadinterp_workspace_destroy(ws);
+    cadinterp_close(asset);
+  }
+};
+
+std::unique_ptr<Opened> open_synthetic(SyntheticSpec spec) {
+  auto o = std::make_unique<Opened>();
+  o->synthetic = cadinterp::format::make_synthetic_asset(spec);
+  o->bytes = cadinterp::format::write_asset(o->synthetic.content, {});
+  EXPECT_EQ(cadinterp_open_memory(o->bytes.data(), o->bytes.size(), 0, &o->asset), CADINTERP_OK)
+      << cadinterp_open_error();
+  EXPECT_EQ(cadinterp_workspace_create(o->asset, &o->ws), CADINTERP_OK);
+  return o;
+}
+
+SyntheticSpec spec(int K, cadinterp::core::Degree g) {
+  SyntheticSpec s;
+  s.K = K;
+  s.degree = g;
+  s.tolerance = 2e-3;
+  s.max_samples = 200;
+  return s;
+}
+
+TEST(Runtime, QueriesDescribeTheAsset) {
+  const auto o = open_synthetic(spec(3, cadinterp::core::Degree::Cubic));
+  EXPECT_EQ(cadinterp_dim(o->asset), 3);
+  EXPECT_EQ(cadinterp_degree(o->asset), 3);
+  EXPECT_EQ(cadinterp_element_count(o->asset), o->synthetic.basis->element_count());
+  cadinterp_parameter_info p;
+  ASSERT_EQ(cadinterp_parameter(o->asset, 1, &p), CADINTERP_OK);
+  EXPECT_STREQ(p.name, "twist");
+  EXPECT_STREQ(p.unit, "rad/m");
+  EXPECT_EQ(p.lower, 0.0);
+  EXPECT_EQ(p.upper, 1.0);
+  EXPECT_EQ(cadinterp_parameter(o->asset, 3, &p), CADINTERP_E_INVALID_ARGUMENT);
+  ASSERT_EQ(cadinterp_field_count(o->asset), 2);
+  cadinterp_field_info f;
+  ASSERT_EQ(cadinterp_field(o->asset, 1, &f), CADINTERP_OK);
+  EXPECT_STREQ(f.name, "stress");
+  EXPECT_EQ(f.location, CADINTERP_PER_TET);
+  int idx = -1;
+  EXPECT_EQ(cadinterp_find_field(o->asset, "temperature", &idx), CADINTERP_OK);
+  EXPECT_EQ(idx, 0);
+  EXPECT_EQ(cadinterp_find_field(o->asset, "pressure", &idx), CADINTERP_E_NOT_FOUND);
+  ASSERT_EQ(cadinterp_region_count(o->asset), 2);
+  cadinterp_region_info r;
+  ASSERT_EQ(cadinterp_region(o->asset, 0, &r), CADINTERP_OK);
+  EXPECT_STREQ(r.kind, "fixed");
+  ASSERT_EQ(r.face_tag_count, 1);
+  EXPECT_EQ(r.face_tags[0], 0);
+  cadinterp_provenance prov;
+  ASSERT_EQ(cadinterp_get_provenance(o->asset, &prov), CADINTERP_OK);
+  EXPECT_STREQ(prov.host, "synthetic box");
+  int major = 0, minor = -1;
+  EXPECT_EQ(cadinterp_asset_format(o->asset, &major, &minor), CADINTERP_OK);
+  EXPECT_EQ(major, 1);
+  EXPECT_EQ(minor, 0);
+}
+
+// Eval equals the blend of the stored samples with the basis weights, and approximates the host.
+TEST(Runtime, EvalMatchesTheBasisBlendAndTheHost) {
+  for (auto g : {cadinterp::core::Degree::Linear, cadinterp::core::Degree::Cubic}) {
+    const auto o = open_synthetic(spec(3, g));
+    const cadinterp::core::CompiledBasis& cb = *o->synthetic.basis;
+    cadinterp::core::EvalWorkspace bws = cb.make_workspace();
+    std::mt19937_64 rng(5);
+    const int fields[2] = {0, 1};
+    double worst_host = 0.0;
+    for (int i = 0; i < 100; ++i) {
+      double x[3];
+      for (double& v : x) v = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+      cadinterp_mesh m;
+      ASSERT_EQ(cadinterp_eval(o->ws, x, fields, 2, &m), CADINTERP_OK)
+          << cadinterp_workspace_error(o->ws);
+      cadinterp::core::BasisWeights w;
+      ASSERT_TRUE(cb.eval(x, bws, false, &w));
+      ASSERT_EQ(m.element, w.element);
+      const auto& ed = o->synthetic.content.elements[static_cast<std::size_t>(w.element)];
+      for (std::size_t v = 0; v < m.vertex_count * 3; ++v) {
+        double ref = 0.0;
+        for (int t = 0; t < w.count; ++t)
+          ref += w.psi[t] * ed.positions[static_cast<std::size_t>(t)][v];
+        ASSERT_NEAR(m.positions[v], ref, 1e-5);
+      }
+      const std::size_t nv = m.vertex_count, nt = m.tet_count;
+      for (std::size_t k = 0; k < nt; ++k) {
+        double ref = 0.0;
+        for (int t = 0; t < w.count; ++t)
+          ref += w.psi[t] * ed.fields[static_cast<std::size_t>(t)][nv + k];
+        ASSERT_NEAR(m.fields[1][k], ref, 1e-4);
+      }
+      std::vector<float> pos, fld;
+      ASSERT_TRUE(cadinterp::format::synthetic_host(spec(3, g), x, pos, fld));
+      for (std::size_t v = 0; v < nv * 3; ++v)
+        worst_host = std::max(worst_host, std::abs(double(m.positions[v]) - pos[v]));
+    }
+    std::printf("[ figures ] %s: max position error against the host %.2e (tolerance 2e-3)\n",
+                g == cadinterp::core::Degree::Linear ? "linear" : "cubic", worst_host);
+    EXPECT_LT(worst_host, 1e-2);
+  }
+}
+
+// Central differences of eval, inside one element (the cubic asset is C2 anyway).
+TEST(Runtime, GradMatchesFiniteDifferences) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Cubic));
+  std::mt19937_64 rng(8);
+  const int fields[1] = {0};
+  for (int i = 0; i < 20; ++i) {
+    double x[2] = {std::uniform_real_distribution<double>(0.05, 0.95)(rng),
+                   std::uniform_real_distribution<double>(0.05, 0.95)(rng)};
+    cadinterp_mesh_grad g;
+    ASSERT_EQ(cadinterp_grad(o->ws, x, fields, 1, &g), CADINTERP_OK);
+    const std::vector<float> dpos(g.dpositions, g.dpositions + 2 * 3 * g.vertex_count);
+    const std::vector<float> dfield(g.dfields[0], g.dfields[0] + 2 * g.vertex_count);
+    const std::size_t nv = g.vertex_count;
+    for (int d = 0; d < 2; ++d) {
+      const double h = 1e-4;
+      double xp[2] = {x[0], x[1]}, xm[2] = {x[0], x[1]};
+      xp[d] += h;
+      xm[d] -= h;
+      cadinterp_mesh mp, mm;
+      ASSERT_EQ(cadinterp_eval(o->ws, xp, fields, 1, &mp), CADINTERP_OK);
+      const std::vector<float> pp(mp.positions, mp.positions + nv * 3),
+          fp(mp.fields[0], mp.fields[0] + nv);
+      ASSERT_EQ(cadinterp_eval(o->ws, xm, fields, 1, &mm), CADINTERP_OK);
+      for (std::size_t v = 0; v < nv * 3; ++v)
+        ASSERT_NEAR(dpos[static_cast<std::size_t>(d) * nv * 3 + v],
+                    (pp[v] - mm.positions[v]) / (2 * h), 2e-3);
+      for (std::size_t v = 0; v < nv; ++v)
+        ASSERT_NEAR(dfield[static_cast<std::size_t>(d) * nv + v],
+                    (fp[v] - mm.fields[0][v]) / (2 * h), 5e-2);
+    }
+  }
+}
+
+TEST(Runtime, VectorJacobianProductContractsTheGradient) {
+  const auto o = open_synthetic(spec(3, cadinterp::core::Degree::Linear));
+  std::mt19937_64 rng(2);
+  const int fields[1] = {1};
+  for (int i = 0; i < 10; ++i) {
+    double x[3];
+    for (double& v : x) v = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+    cadinterp_mesh_grad g;
+    ASSERT_EQ(cadinterp_grad(o->ws, x, fields, 1, &g), CADINTERP_OK);
+    const std::size_t nv = g.vertex_count;
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x, fields, 1, &m), CADINTERP_OK);
+    const std::size_t nt = m.tet_count;
+    ASSERT_EQ(cadinterp_grad(o->ws, x, fields, 1, &g), CADINTERP_OK);
+    std::vector<float> adj(nv * 3), fadj(nt);
+    for (float& a : adj) a = std::uniform_real_distribution<float>(-1, 1)(rng);
+    for (float& a : fadj) a = std::uniform_real_distribution<float>(-1, 1)(rng);
+    double expect[3] = {0, 0, 0};
+    for (int d = 0; d < 3; ++d) {
+      for (std::size_t v = 0; v < nv * 3; ++v)
+        expect[d] += double(adj[v]) * g.dpositions[static_cast<std::size_t>(d) * nv * 3 + v];
+      for (std::size_t k = 0; k < nt; ++k)
+        expect[d] += double(fadj[k]) * g.dfields[0][static_cast<std::size_t>(d) * nt + k];
+    }
+    const float* fadjs[1] = {fadj.data()};
+    double got[3];
+    ASSERT_EQ(cadinterp_vjp(o->ws, x, adj.data(), fields, fadjs, 1, got), CADINTERP_OK);
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(got[d], expect[d], 1e-3 * (1 + std::abs(expect[d])));
+  }
+}
+
+TEST(Runtime, PropertiesAndTheirGradients) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Cubic));
+  const double dir[3] = {0.0, 0.0, 1.0};
+  double x[2] = {0.3, 0.6};
+  cadinterp_properties p, g[2];
+  ASSERT_EQ(cadinterp_properties_eval(o->ws, x, 7.8, dir, &p, g), CADINTERP_OK);
+  // Against the kernel on the evaluated mesh.
+  cadinterp_mesh m;
+  ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
+  cadinterp::runtime::MassPropertiesOptions opt;
+  opt.density = 7.8;
+  const auto mp = cadinterp::runtime::mass_properties(
+      {m.positions, m.vertex_count, m.tets, m.tet_count, m.triangles, m.triangle_count}, opt);
+  EXPECT_NEAR(p.volume, mp.volume, 1e-12);
+  EXPECT_NEAR(p.mass, 7.8 * p.volume, 1e-12);
+  EXPECT_NEAR(p.volume, 0.125 * (1 - 0.3 * 0.0), 0.01) << "a 1 x 0.5 x 0.25 box, slightly deformed";
+  // Gradients against central differences.
+  for (int d = 0; d < 2; ++d) {
+    const double h = 1e-4;
+    double xp[2] = {x[0], x[1]}, xm[2] = {x[0], x[1]};
+    xp[d] += h;
+    xm[d] -= h;
+    cadinterp_properties pp, pm;
+    ASSERT_EQ(cadinterp_properties_eval(o->ws, xp, 7.8, dir, &pp, nullptr), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_properties_eval(o->ws, xm, 7.8, dir, &pm, nullptr), CADINTERP_OK);
+    EXPECT_NEAR(g[d].volume, (pp.volume - pm.volume) / (2 * h), 1e-4);
+    EXPECT_NEAR(g[d].area, (pp.area - pm.area) / (2 * h), 1e-3);
+    EXPECT_NEAR(g[d].frontal_area, (pp.frontal_area - pm.frontal_area) / (2 * h), 1e-3);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(g[d].centroid[c], (pp.centroid[c] - pm.centroid[c]) / (2 * h), 1e-3);
+    for (int c = 0; c < 9; ++c)
+      EXPECT_NEAR(g[d].inertia[c], (pp.inertia[c] - pm.inertia[c]) / (2 * h), 1e-3);
+  }
+}
+
+TEST(Runtime, FailuresAreNamedAndLeaveOutputsUntouched) {
+  SyntheticSpec s = spec(2, cadinterp::core::Degree::Linear);
+  s.infeasible_corner = true;
+  const auto o = open_synthetic(s);
+  cadinterp_mesh m;
+  std::memset(&m, 0x5a, sizeof m);
+  cadinterp_mesh before = m;
+  const double outside[2] = {1.5, 0.5};
+  EXPECT_EQ(cadinterp_eval(o->ws, outside, nullptr, 0, &m), CADINTERP_E_OUTSIDE_DOMAIN);
+  EXPECT_GT(std::strlen(cadinterp_workspace_error(o->ws)), 0u);
+  const double nan[2] = {std::nan(""), 0.5};
+  EXPECT_EQ(cadinterp_eval(o->ws, nan, nullptr, 0, &m), CADINTERP_E_OUTSIDE_DOMAIN);
+  const double corner[2] = {0.99, 0.99};
+  EXPECT_EQ(cadinterp_eval(o->ws, corner, nullptr, 0, &m), CADINTERP_E_INFEASIBLE);
+  int e = -1, feasible = -1;
+  EXPECT_EQ(cadinterp_locate(o->asset, corner, &e, &feasible), CADINTERP_OK);
+  EXPECT_EQ(feasible, 0);
+  const int bad_field[1] = {7};
+  const double ok_x[2] = {0.2, 0.2};
+  EXPECT_EQ(cadinterp_eval(o->ws, ok_x, bad_field, 1, &m), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_eval(o->ws, nullptr, nullptr, 0, &m), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(std::memcmp(&m, &before, sizeof m), 0) << "a failed eval wrote its output";
+  double err = -5;
+  EXPECT_EQ(cadinterp_error_estimate(o->asset, ok_x, &err), CADINTERP_OK);
+  EXPECT_NE(err, -5);
+  EXPECT_EQ(cadinterp_eval(o->ws, ok_x, nullptr, 0, &m), CADINTERP_OK);
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
+  EXPECT_EQ(cadinterp_eval(nullptr, ok_x, nullptr, 0, &m), CADINTERP_E_INVALID_ARGUMENT);
+}
+
+TEST(Runtime, OpenReportsNamedErrors) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  std::vector<std::uint8_t> b = o->bytes;
+  b[10] = 9;  // newer minor
+  cadinterp_asset* a = nullptr;
+  EXPECT_EQ(cadinterp_open_memory(b.data(), b.size(), 1, &a), CADINTERP_E_UNSUPPORTED_VERSION);
+  EXPECT_EQ(a, nullptr);
+  EXPECT_NE(std::string(cadinterp_open_error()).find("format"), std::string::npos);
+  b = o->bytes;
+  b.resize(b.size() / 2);
+  EXPECT_EQ(cadinterp_open_memory(b.data(), b.size(), 1, &a), CADINTERP_E_TRUNCATED);
+}
+
+TEST(Runtime, TinyCacheBudgetStillEvaluatesCorrectly) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  std::mt19937_64 rng(4);
+  std::vector<std::vector<float>> first;
+  std::vector<std::array<double, 2>> xs(50);
+  for (auto& x : xs)
+    x = {std::uniform_real_distribution<double>(0, 1)(rng),
+         std::uniform_real_distribution<double>(0, 1)(rng)};
+  for (const auto& x : xs) {
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x.data(), nullptr, 0, &m), CADINTERP_OK);
+    first.emplace_back(m.positions, m.positions + m.vertex_count * 3);
+  }
+  ASSERT_EQ(cadinterp_set_cache_budget(o->asset, 1), CADINTERP_OK);
+  for (std::size_t i = 0; i < xs.size(); ++i) {
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, xs[i].data(), nullptr, 0, &m), CADINTERP_OK);
+    EXPECT_EQ(std::vector<float>(m.positions, m.positions + m.vertex_count * 3), first[i]);
+  }
+}
+
+}  // namespace
+
+#include "cadinterp/cadinterp.hpp"
+
+namespace {
+
+TEST(RuntimeCpp, WrapperOwnsHandlesAndThrowsNamedErrors) {
+  cadinterp::format::SyntheticSpec s;
+  s.K = 2;
+  s.max_samples = 40;
+  const auto synthetic = cadinterp::format::make_synthetic_asset(s);
+  const auto bytes = cadinterp::format::write_asset(synthetic.content, {});
+  const cadinterp::Asset asset = cadinterp::Asset::open_memory(bytes.data(), bytes.size(), true);
+  cadinterp::Workspace ws(asset);
+  const double x[2] = {0.4, 0.7};
+  const cadinterp_mesh m = ws.eval(x, {asset.find_field("stress")});
+  EXPECT_GT(m.vertex_count, 0u);
+  const double outside[2] = {-1, 0};
+  try {
+    ws.eval(outside);
+    FAIL() << "no exception";
+  } catch (const cadinterp::Error& e) {
+    EXPECT_EQ(e.status(), CADINTERP_E_OUTSIDE_DOMAIN);
+  }
+  EXPECT_THROW(cadinterp::Asset::open("/nonexistent.cadi"), cadinterp::Error);
+  EXPECT_THROW(asset.find_field("nope"), cadinterp::Error);
+}
+
+}  // namespace
