@@ -15,6 +15,15 @@ PACKAGES=(
   libbenchmark-dev  # Google Benchmark
   libeigen3-dev
   clang-format
+  flatbuffers-compiler  # flatc: the asset index schema
+  libflatbuffers-dev
+  libzstd-dev           # codecs
+  libmeshoptimizer-dev
+  libdraco-dev
+  libxxhash-dev         # blob checksums
+  binutils              # nm: the export check of libcadinterp
+  clang                 # libFuzzer target (scripts/fuzz.sh)
+  libclang-rt-14-dev
 )
 
 missing=()

@@ -4,6 +4,7 @@
 #   release the full suite (unit + property tests) and a benchmark smoke run
 #   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan    the tests labelled 'concurrency' under ThreadSanitizer
+#   fuzz    the libFuzzer open+eval target for 30 s (clang, ASan + UBSan), seeded from conformance
 set -euo pipefail
 cd "$(dirname "$0")/.."
 JOBS="${JOBS:-$(nproc)}"
@@ -21,8 +22,9 @@ cmake --preset release >/dev/null
 cmake --build --preset release -j "$JOBS"
 ctest --preset release -j "$JOBS"
 
-step "release: benchmark smoke run (measures nothing, proves the benchmarks run)"
+step "release: benchmark smoke runs (measure nothing, prove the benchmarks run)"
 ./build/release/src/core/core_bench --benchmark_min_time=0.001 >/dev/null
+./build/release/src/runtime/runtime_probe_bench --benchmark_min_time=0.001 >/dev/null
 
 step "asan: ASan + UBSan, every test"
 cmake --preset asan >/dev/null
@@ -33,3 +35,6 @@ step "tsan: ThreadSanitizer, concurrency tests"
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan -j "$JOBS"
 ctest --preset tsan -j "$JOBS" -L concurrency
+
+step "fuzz: open+eval for 30 s"
+scripts/fuzz.sh 30 2>&1 | tail -3

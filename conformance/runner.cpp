@@ -1,0 +1,191 @@
+// cadinterp-conformance CASES_DIR: runs the conformance cases against the runtime it is linked
+// with, through the public C ABI only (so it works against any build of the runtime).
+//
+// Each case directory holds asset.cadi and expected.txt, a sequence of lines:
+//   open STATUS                      status of cadinterp_open
+//   tolerance T / grad_tolerance T   |got - expected| <= T * (1 + |expected|)
+//   point x1 .. xK                   the next expectations are at x (hex floats)
+//   status STATUS                    status of cadinterp_eval (and cadinterp_grad) at x
+//   element E                        element holding x
+//   positions v...                   #V*3 expected positions
+//   dpositions v...                  K lines: d positions / d x_k
+//   field0 v... / dfield0 v...       field 0 and its K derivative arrays
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cadinterp/cadinterp.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::map<std::string, cadinterp_status> kStatus = {
+    {"CADINTERP_OK", CADINTERP_OK},
+    {"CADINTERP_E_INVALID_ARGUMENT", CADINTERP_E_INVALID_ARGUMENT},
+    {"CADINTERP_E_OUT_OF_MEMORY", CADINTERP_E_OUT_OF_MEMORY},
+    {"CADINTERP_E_IO", CADINTERP_E_IO},
+    {"CADINTERP_E_BAD_MAGIC", CADINTERP_E_BAD_MAGIC},
+    {"CADINTERP_E_UNSUPPORTED_VERSION", CADINTERP_E_UNSUPPORTED_VERSION},
+    {"CADINTERP_E_TRUNCATED", CADINTERP_E_TRUNCATED},
+    {"CADINTERP_E_CORRUPT_INDEX", CADINTERP_E_CORRUPT_INDEX},
+    {"CADINTERP_E_CHECKSUM", CADINTERP_E_CHECKSUM},
+    {"CADINTERP_E_OUT_OF_RANGE", CADINTERP_E_OUT_OF_RANGE},
+    {"CADINTERP_E_LIMIT", CADINTERP_E_LIMIT},
+    {"CADINTERP_E_CORRUPT_BLOB", CADINTERP_E_CORRUPT_BLOB},
+    {"CADINTERP_E_OUTSIDE_DOMAIN", CADINTERP_E_OUTSIDE_DOMAIN},
+    {"CADINTERP_E_INFEASIBLE", CADINTERP_E_INFEASIBLE},
+    {"CADINTERP_E_INTERNAL", CADINTERP_E_INTERNAL},
+    {"CADINTERP_E_NOT_FOUND", CADINTERP_E_NOT_FOUND},
+};
+
+struct Failure : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+cadinterp_status parse_status(const std::string& s) {
+  const auto it = kStatus.find(s);
+  if (it == kStatus.end()) throw Failure("unknown status name " + s);
+  return it->second;
+}
+
+std::vector<double> numbers(std::istringstream& in) {
+  std::vector<double> v;
+  std::string tok;
+  while (in >> tok) v.push_back(std::strtod(tok.c_str(), nullptr));
+  return v;
+}
+
+void compare(const std::string& what, const float* got, const std::vector<double>& want,
+             double tol) {
+  for (std::size_t i = 0; i < want.size(); ++i)
+    if (!(std::abs(got[i] - want[i]) <= tol * (1.0 + std::abs(want[i]))))
+      throw Failure(what + "[" + std::to_string(i) + "]: got " + std::to_string(got[i]) +
+                    ", expected " + std::to_string(want[i]));
+}
+
+void run_case(const fs::path& dir) {
+  std::ifstream exp(dir / "expected.txt");
+  if (!exp) throw Failure("no expected.txt");
+  cadinterp_asset* asset = nullptr;
+  cadinterp_workspace* ws = nullptr;
+  struct Cleanup {
+    cadinterp_asset*& a;
+    cadinterp_workspace*& w;
+    ~Cleanup() {
+      cadinterp_workspace_destroy(w);
+      cadinterp_close(a);
+    }
+  } cleanup{asset, ws};
+  double tol = 1e-5, grad_tol = 1e-4;
+  std::vector<double> x;
+  cadinterp_mesh mesh{};
+  cadinterp_mesh_grad grad{};
+  int dpos = 0, dfield = 0;
+  std::string line;
+  while (std::getline(exp, line)) {
+    std::istringstream in(line);
+    std::string key;
+    if (!(in >> key) || key[0] == '#') continue;
+    if (key == "open") {
+      std::string s;
+      in >> s;
+      const cadinterp_status got = cadinterp_open((dir / "asset.cadi").c_str(), &asset);
+      if (got != parse_status(s))
+        throw Failure(std::string("open: got ") + cadinterp_status_string(got) + " (" +
+                      cadinterp_open_error() + "), expected " + s);
+      if (got == CADINTERP_OK && cadinterp_workspace_create(asset, &ws) != CADINTERP_OK)
+        throw Failure("workspace");
+    } else if (key == "tolerance") {
+      in >> tol;
+    } else if (key == "grad_tolerance") {
+      in >> grad_tol;
+    } else if (key == "point") {
+      x = numbers(in);
+      if (!asset || static_cast<int>(x.size()) != cadinterp_dim(asset))
+        throw Failure("point dimension");
+    } else if (key == "status") {
+      std::string s;
+      in >> s;
+      const int fields[1] = {0};
+      const int nf = cadinterp_field_count(asset) > 0 ? 1 : 0;
+      const cadinterp_status got = cadinterp_eval(ws, x.data(), fields, nf, &mesh);
+      if (got != parse_status(s))
+        throw Failure(std::string("eval: got ") + cadinterp_status_string(got) + " (" +
+                      cadinterp_workspace_error(ws) + "), expected " + s);
+      if (got == CADINTERP_OK) {
+        // eval's arrays live until the next call: copy what later lines compare.
+        static thread_local std::vector<float> pos, fld;
+        pos.assign(mesh.positions, mesh.positions + 3 * mesh.vertex_count);
+        if (nf) fld.assign(mesh.fields[0], mesh.fields[0] + mesh.vertex_count);
+        const int element = mesh.element;
+        const std::uint32_t nv = mesh.vertex_count;
+        if (cadinterp_grad(ws, x.data(), fields, nf, &grad) != CADINTERP_OK)
+          throw Failure("grad failed");
+        mesh = cadinterp_mesh{};
+        mesh.element = element;
+        mesh.vertex_count = nv;
+        mesh.positions = pos.data();
+        static thread_local const float* fptr[1];
+        fptr[0] = fld.data();
+        mesh.fields = fptr;
+      }
+      dpos = dfield = 0;
+    } else if (key == "element") {
+      int e;
+      in >> e;
+      if (e != mesh.element)
+        throw Failure("element " + std::to_string(mesh.element) + ", expected " +
+                      std::to_string(e));
+    } else if (key == "positions") {
+      const auto want = numbers(in);
+      if (want.size() != 3 * std::size_t(mesh.vertex_count)) throw Failure("vertex count");
+      compare("positions", mesh.positions, want, tol);
+    } else if (key == "dpositions") {
+      const auto want = numbers(in);
+      compare("dpositions", grad.dpositions + std::size_t(dpos++) * want.size(), want, grad_tol);
+    } else if (key == "field0") {
+      compare("field0", mesh.fields[0], numbers(in), tol);
+    } else if (key == "dfield0") {
+      const auto want = numbers(in);
+      compare("dfield0", grad.dfields[0] + std::size_t(dfield++) * want.size(), want, grad_tol);
+    } else {
+      throw Failure("unknown line: " + line);
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: %s CASES_DIR   (e.g. conformance/cases)\n", argv[0]);
+    return 2;
+  }
+  int passed = 0, failed = 0;
+  std::vector<fs::path> cases;
+  for (const char* group : {"valid", "invalid"})
+    for (const auto& e : fs::directory_iterator(fs::path(argv[1]) / group))
+      cases.push_back(e.path());
+  std::sort(cases.begin(), cases.end());
+  for (const fs::path& c : cases) {
+    const std::string name = c.parent_path().filename().string() + "/" + c.filename().string();
+    try {
+      run_case(c);
+      std::printf("PASS %s\n", name.c_str());
+      ++passed;
+    } catch (const std::exception& e) {
+      std::printf("FAIL %s: %s\n", name.c_str(), e.what());
+      ++failed;
+    }
+  }
+  std::printf("conformance: %d passed, %d failed\n", passed, failed);
+  return failed == 0 && passed > 0 ? 0 : 1;
+}
