@@ -203,6 +203,25 @@ std::size_t field_size(const cadinterp_asset& a, int f, std::size_t nv, std::siz
   return (s.location == CADINTERP_PER_VERTEX ? nv : nt) * static_cast<std::size_t>(s.components);
 }
 
+// <a, b> over n floats: float products summed in float per block of 256 (vectorizable at -O2:
+// compile-time trip count, restrict parameters), blocks summed in double. Relative error about
+// 256 * 2^-24 of the block sums' magnitudes: far below the float data's own precision.
+template <std::size_t L>
+float dot_block(const float* __restrict a, const float* __restrict b) {
+  float s[8] = {};
+  for (std::size_t k = 0; k < L; k += 8)
+    for (std::size_t l = 0; l < 8; ++l) s[l] += a[k + l] * b[k + l];
+  return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
+}
+
+double dot(const float* a, const float* b, std::size_t n) {
+  double sum = 0.0;
+  std::size_t i = 0;
+  for (; i + 256 <= n; i += 256) sum += dot_block<256>(a + i, b + i);
+  for (; i < n; ++i) sum += double(a[i]) * b[i];
+  return sum;
+}
+
 // Shared front half of eval/grad/vjp/properties: argument checks, locate, basis weights, the
 // element's meshes. Returns OK with ws->element set and w filled.
 cadinterp_status prepare(cadinterp_workspace* ws, const double* x, const int* fields,
@@ -500,20 +519,17 @@ cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const f
     // dF/dx_k = sum_t dpsi_t/dx_k <dF/dP, p_t>: one dot product per term (Eq. 13 contracted).
     double out[cadinterp::core::kMaxDim] = {};
     for (int t = 0; t < w.count; ++t) {
-      double dot = 0.0;
-      if (dF_dpositions) {
-        const float* p = d.positions[static_cast<std::size_t>(t)].data();
-        for (std::size_t i = 0; i < nv * 3; ++i) dot += double(dF_dpositions[i]) * p[i];
-      }
+      double dot_t = 0.0;
+      if (dF_dpositions)
+        dot_t += dot(dF_dpositions, d.positions[static_cast<std::size_t>(t)].data(), nv * 3);
       for (int f = 0; dF_dfields && f < field_count; ++f) {
         const float* g = dF_dfields[f];
         if (!g) continue;
         const float* v = d.fields[static_cast<std::size_t>(t)].data() +
                          field_offset(*ws->asset, fields[f], nv, nt);
-        const std::size_t n = field_size(*ws->asset, fields[f], nv, nt);
-        for (std::size_t i = 0; i < n; ++i) dot += double(g[i]) * v[i];
+        dot_t += dot(g, v, field_size(*ws->asset, fields[f], nv, nt));
       }
-      for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dot;
+      for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dot_t;
     }
     std::memcpy(dF_dx, out, sizeof(double) * static_cast<std::size_t>(K));
     ws->error.clear();
