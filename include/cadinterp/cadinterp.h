@@ -39,21 +39,21 @@ extern "C" {
 /** Status codes. Values are explicit and only ever appended. */
 typedef enum cadinterp_status {
   CADINTERP_OK = 0,
-  CADINTERP_E_INVALID_ARGUMENT = 1,     /**< NULL where a value is needed, index out of range... */
+  CADINTERP_E_INVALID_ARGUMENT = 1, /**< NULL where a value is needed, index out of range... */
   CADINTERP_E_OUT_OF_MEMORY = 2,
-  CADINTERP_E_IO = 3,                   /**< the file cannot be opened, mapped or read */
-  CADINTERP_E_BAD_MAGIC = 4,            /**< not a cadinterp asset */
-  CADINTERP_E_UNSUPPORTED_VERSION = 5,  /**< another format major, or a newer minor */
-  CADINTERP_E_TRUNCATED = 6,            /**< the file is shorter than its header says */
-  CADINTERP_E_CORRUPT_INDEX = 7,        /**< the index fails verification */
-  CADINTERP_E_CHECKSUM = 8,             /**< stored bytes differ from their checksum */
-  CADINTERP_E_OUT_OF_RANGE = 9,         /**< a blob lies outside the file */
-  CADINTERP_E_LIMIT = 10,               /**< a count exceeds the reader's limits */
-  CADINTERP_E_CORRUPT_BLOB = 11,        /**< mesh data fails to decode or holds invalid values */
-  CADINTERP_E_OUTSIDE_DOMAIN = 12,      /**< x is outside the parameter box (or not finite) */
-  CADINTERP_E_INFEASIBLE = 13,          /**< x lies where the model could not be built */
-  CADINTERP_E_INTERNAL = 14,            /**< a bug: please report it with the message */
-  CADINTERP_E_NOT_FOUND = 15            /**< no field of that name */
+  CADINTERP_E_IO = 3,                  /**< the file cannot be opened, mapped or read */
+  CADINTERP_E_BAD_MAGIC = 4,           /**< not a cadinterp asset */
+  CADINTERP_E_UNSUPPORTED_VERSION = 5, /**< another format major, or a newer minor */
+  CADINTERP_E_TRUNCATED = 6,           /**< the file is shorter than its header says */
+  CADINTERP_E_CORRUPT_INDEX = 7,       /**< the index fails verification */
+  CADINTERP_E_CHECKSUM = 8,            /**< stored bytes differ from their checksum */
+  CADINTERP_E_OUT_OF_RANGE = 9,        /**< a blob lies outside the file */
+  CADINTERP_E_LIMIT = 10,              /**< a count exceeds the reader's limits */
+  CADINTERP_E_CORRUPT_BLOB = 11,       /**< mesh data fails to decode or holds invalid values */
+  CADINTERP_E_OUTSIDE_DOMAIN = 12,     /**< x is outside the parameter box (or not finite) */
+  CADINTERP_E_INFEASIBLE = 13,         /**< x lies where the model could not be built */
+  CADINTERP_E_INTERNAL = 14,           /**< a bug: please report it with the message */
+  CADINTERP_E_NOT_FOUND = 15           /**< no field of that name */
 } cadinterp_status;
 
 /** An opened asset (opaque). */
@@ -146,7 +146,7 @@ CADINTERP_API cadinterp_status cadinterp_find_field(const cadinterp_asset* asset
 
 typedef struct cadinterp_region_info {
   const char* name;
-  const char* kind;        /**< "fixed", "force", "heat", ... as the builder's host named it */
+  const char* kind;         /**< "fixed", "force", "heat", ... as the builder's host named it */
   const int32_t* face_tags; /**< the triangle tags the region covers */
   int face_tag_count;
 } cadinterp_region_info;
@@ -200,14 +200,14 @@ CADINTERP_API const char* cadinterp_workspace_error(const cadinterp_workspace* w
 /** An evaluated mesh. Topology points into the workspace's reference to the element (valid
  *  until the next call with the workspace); arrays likewise. */
 typedef struct cadinterp_mesh {
-  int element;                 /**< the element holding x */
-  uint32_t vertex_count;       /**< #V */
-  uint32_t tet_count;          /**< #T */
-  uint32_t triangle_count;     /**< #F */
-  const uint32_t* tets;        /**< #T by 4 */
-  const uint32_t* triangles;   /**< #F by 3, outward */
-  const int32_t* triangle_tags;/**< #F face tags (see cadinterp_region) */
-  const float* positions;      /**< #V by 3 */
+  int element;                  /**< the element holding x */
+  uint32_t vertex_count;        /**< #V */
+  uint32_t tet_count;           /**< #T */
+  uint32_t triangle_count;      /**< #F */
+  const uint32_t* tets;         /**< #T by 4 */
+  const uint32_t* triangles;    /**< #F by 3, outward */
+  const int32_t* triangle_tags; /**< #F face tags (see cadinterp_region) */
+  const float* positions;       /**< #V by 3 */
   /** Per requested field (in request order): #V (or #T) by components values. */
   const float* const* fields;
 } cadinterp_mesh;
@@ -261,12 +261,12 @@ CADINTERP_API cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const doub
 /** Mass properties of the evaluated solid. */
 typedef struct cadinterp_properties {
   double volume;
-  double mass;          /**< density * volume */
-  double area;          /**< boundary surface area */
-  double frontal_area;  /**< area projected along `direction`: silhouette area for convex bodies,
-                             an upper bound otherwise (a drag proxy) */
+  double mass;         /**< density * volume */
+  double area;         /**< boundary surface area */
+  double frontal_area; /**< area projected along `direction`: silhouette area for convex bodies,
+                            an upper bound otherwise (a drag proxy) */
   double centroid[3];
-  double inertia[9];    /**< 3 by 3 row-major, about the centroid */
+  double inertia[9]; /**< 3 by 3 row-major, about the centroid */
 } cadinterp_properties;
 
 /**

@@ -123,6 +123,14 @@ void put_f64(std::vector<std::uint8_t>& out, double v) { put_le<double>(out, v);
 double get_f64(const std::uint8_t* bytes, std::size_t size, std::size_t& pos) {
   return get_le<double>(bytes, size, pos);
 }
+void put_u32(std::vector<std::uint8_t>& out, std::uint32_t v) { put_le<std::uint32_t>(out, v); }
+std::uint32_t get_u32(const std::uint8_t* bytes, std::size_t size, std::size_t& pos) {
+  return get_le<std::uint32_t>(bytes, size, pos);
+}
+void put_u64(std::vector<std::uint8_t>& out, std::uint64_t v) { put_le<std::uint64_t>(out, v); }
+std::uint64_t get_u64(const std::uint8_t* bytes, std::size_t size, std::size_t& pos) {
+  return get_le<std::uint64_t>(bytes, size, pos);
+}
 
 double max_abs_value(const float* v, std::size_t n) {
   float m = 0.f;

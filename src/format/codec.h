@@ -162,8 +162,13 @@ void write_header(std::vector<std::uint8_t>& out, const BlobHeader& h);
 /// checks mode and flags. Returns the header; `pos` is advanced past it.
 BlobHeader read_header(const std::uint8_t* bytes, std::size_t size, std::size_t& pos,
                        std::uint8_t width, std::size_t rows, std::uint32_t vertex_count);
+/// Little-endian scalars; the getters throw Corrupt when fewer bytes remain than they read.
 void put_f64(std::vector<std::uint8_t>& out, double v);
 double get_f64(const std::uint8_t* bytes, std::size_t size, std::size_t& pos);
+void put_u32(std::vector<std::uint8_t>& out, std::uint32_t v);
+std::uint32_t get_u32(const std::uint8_t* bytes, std::size_t size, std::size_t& pos);
+void put_u64(std::vector<std::uint8_t>& out, std::uint64_t v);
+std::uint64_t get_u64(const std::uint8_t* bytes, std::size_t size, std::size_t& pos);
 
 /// Largest |v| of n finite values.
 double max_abs_value(const float* v, std::size_t n);

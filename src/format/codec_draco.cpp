@@ -36,26 +36,6 @@ namespace {
 constexpr int kMaxDracoBits = 24;
 constexpr std::uint8_t kFlagVertexMap = 2;  // triangle blob holds a compact id -> vertex id map
 
-void put_u32(std::vector<std::uint8_t>& out, std::uint32_t v) {
-  std::uint8_t b[4];
-  std::memcpy(b, &v, 4);
-  out.insert(out.end(), b, b + 4);
-}
-std::uint32_t get_u32(const std::uint8_t* bytes, std::size_t size, std::size_t& pos) {
-  if (size - pos < 4) corrupt("truncated count");
-  std::uint32_t v;
-  std::memcpy(&v, bytes + pos, 4);
-  pos += 4;
-  return v;
-}
-std::uint64_t get_u64(const std::uint8_t* bytes, std::size_t size, std::size_t& pos) {
-  if (size - pos < 8) corrupt("truncated length");
-  std::uint64_t v;
-  std::memcpy(&v, bytes + pos, 8);
-  pos += 8;
-  return v;
-}
-
 void append_draco(std::vector<std::uint8_t>& out, const draco::EncoderBuffer& eb) {
   const auto* p = reinterpret_cast<const std::uint8_t*>(eb.data());
   out.insert(out.end(), p, p + eb.size());

@@ -23,19 +23,6 @@ namespace {
 
 constexpr std::uint8_t kFlagRotations = 2;
 
-void put_u64(std::vector<std::uint8_t>& out, std::uint64_t v) {
-  std::uint8_t b[8];
-  std::memcpy(b, &v, 8);
-  out.insert(out.end(), b, b + 8);
-}
-std::uint64_t get_u64(const std::uint8_t* bytes, std::size_t size, std::size_t& pos) {
-  if (size - pos < 8) corrupt("truncated length");
-  std::uint64_t v;
-  std::memcpy(&v, bytes + pos, 8);
-  pos += 8;
-  return v;
-}
-
 }  // namespace
 
 std::vector<std::uint8_t> meshopt_encode_floats(const float* data, std::size_t rows, int comps,

@@ -6,13 +6,13 @@
 #include "cadinterp/cadinterp.h"
 
 static int failures = 0, checks = 0;
-#define CHECK(cond)                                            \
-  do {                                                         \
-    ++checks;                                                  \
-    if (!(cond)) {                                             \
+#define CHECK(cond)                                                      \
+  do {                                                                   \
+    ++checks;                                                            \
+    if (!(cond)) {                                                       \
       fprintf(stderr, "%s:%d: failed: %s\n", __FILE__, __LINE__, #cond); \
-      ++failures;                                              \
-    }                                                          \
+      ++failures;                                                        \
+    }                                                                    \
   } while (0)
 
 int main(void) {
