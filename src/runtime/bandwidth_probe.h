@@ -25,10 +25,18 @@ void blend_arrays(const float* const* arrays, const float* weights, int m, std::
                   float* out);
 
 /// As blend_arrays(), accumulating in double: each product w * a is exact in double (24 + 24
-/// bits < 53), the sum carries at most gamma_m(2^-53) * sum |w a| of error, and the one rounding
-/// to float adds at most 2^-24 |out|. So out[i] is the correctly rounded exact value unless the
-/// cancellation sum |w a| / |out| exceeds about 2^29 / m. Measured cost over blend_arrays() is in
-/// bandwidth_probe_bench.cpp (BM_BlendArraysF64Acc).
+/// bits < 53), the sum adds at most gamma_m(2^-53) * sum_j |w_j a_j|, and the final rounding to
+/// float at most 2^-24 |out|. So the result is within one float rounding of the exact value
+/// unless the cancellation sum |w a| / |out| exceeds about 2^29 / m.
+///
+/// Is it needed? On interpolation-like inputs (coordinates ~1000 that differ per sample,
+/// partition-of-unity weights, with or without negative lobes) the float kernel's worst error
+/// measured 3 / 5 / 9 u |out| for m = 8 / 27 / 64 and this one's 1 u |out|
+/// (bandwidth_probe_test.cpp, ErrorOnInterpolationLikeInputs, u = 2^-24): a few float ulps,
+/// ~0.5 um on a 1 m part at m = 64, against up to 1 u for storing each sample as float at all. Use
+/// this where that matters or where weights cancel strongly. Cost: ~0.6x the float kernel's
+/// throughput while inputs are in cache (two-lane SSE2 doubles make it compute-bound), 0.8-0.9x
+/// beyond cache (bandwidth_probe_bench.cpp).
 void blend_arrays_f64acc(const float* const* arrays, const float* weights, int m, std::size_t n,
                          float* out);
 

@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -95,6 +97,65 @@ TEST(BlendArrays, WithinFloatDotProductBound) {
               << "m=" << m << " n=" << n << " i=" << i << " cancelling=" << cancelling;
         }
       }
+    }
+  }
+}
+
+// Errors on interpolation-like inputs, printed for the record: m meshes with coordinates of
+// magnitude ~1000 that differ by small per-sample offsets, blended with a partition of unity,
+// either nonnegative (linear B-splines) or with negative lobes (cubic weights near the domain
+// boundary; sum |w| ~ 3). Error in units of u |exact| (u = 2^-24, half an ulp).
+TEST(BlendArrays, ErrorOnInterpolationLikeInputs) {
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<float> coord(-1000.0f, 1000.0f), offset(-1.0f, 1.0f);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const std::size_t n = 30000;
+  for (int m : {8, 27, 64}) {
+    for (bool negative : {false, true}) {
+      std::vector<float> base(n);
+      for (float& v : base) v = coord(rng);
+      std::vector<std::vector<float>> storage(static_cast<std::size_t>(m), std::vector<float>(n));
+      std::vector<const float*> arrays;
+      for (auto& a : storage) {
+        for (std::size_t i = 0; i < n; ++i) a[i] = base[i] + offset(rng);
+        arrays.push_back(a.data());
+      }
+      std::vector<double> w(static_cast<std::size_t>(m));
+      double sum = 0.0;
+      for (std::size_t j = 0; j < w.size(); ++j) {
+        w[j] = unit(rng);
+        if (negative && j % 3 == 0) w[j] = -w[j];
+        sum += w[j];
+      }
+      std::vector<float> weights;
+      double abs_w = 0.0;
+      for (double v : w) {
+        weights.push_back(static_cast<float>(v / sum));
+        abs_w += std::fabs(v / sum);
+      }
+      std::vector<float> out(n), out64(n);
+      blend_arrays(arrays.data(), weights.data(), m, n, out.data());
+      blend_arrays_f64acc(arrays.data(), weights.data(), m, n, out64.data());
+      double worst = 0.0, worst64 = 0.0;
+      for (std::size_t i = 0; i < n; ++i) {
+        long double exact = 0.0L;
+        for (int j = 0; j < m; ++j)
+          exact +=
+              static_cast<long double>(static_cast<double>(weights[static_cast<std::size_t>(j)]) *
+                                       static_cast<double>(arrays[static_cast<std::size_t>(j)][i]));
+        const double e = static_cast<double>(exact);
+        // Away from 0, where every |a| is within 2% of |exact| (offsets are <= 1).
+        if (std::fabs(e) < 100.0) continue;
+        worst = std::max(worst, std::fabs(out[i] - e) / (kU * std::fabs(e)));
+        worst64 = std::max(worst64, std::fabs(out64[i] - e) / (kU * std::fabs(e)));
+      }
+      std::printf(
+          "m=%2d %-12s sum|w|=%.2f  max error / (u |exact|): float acc %.2f, double acc %.2f\n", m,
+          negative ? "with w < 0" : "w >= 0", abs_w, worst, worst64);
+      // Double accumulation: one rounding to float, plus far less than that from the sum.
+      EXPECT_LE(worst64, 1.01) << m;
+      // Float accumulation: within the a priori bound gamma_m sum |w a| <= m u sum|w| max|a|.
+      EXPECT_LE(worst, m * abs_w * 1.03) << m;
     }
   }
 }

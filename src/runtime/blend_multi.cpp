@@ -19,12 +19,11 @@ inline void axpy_block(float* __restrict out, const float* __restrict a, float w
 }
 
 template <std::size_t L>
-void multi_block(const float* const* arrays, const float* weights, int m, int nout,
-                 std::size_t i0, float* const* outs) {
+void multi_block(const float* const* arrays, const float* weights, int m, int nout, std::size_t i0,
+                 float* const* outs) {
   for (int o = 0; o < nout; ++o) scale_block<L>(outs[o] + i0, arrays[0] + i0, weights[o * m]);
   for (int j = 1; j < m; ++j)
-    for (int o = 0; o < nout; ++o)
-      axpy_block<L>(outs[o] + i0, arrays[j] + i0, weights[o * m + j]);
+    for (int o = 0; o < nout; ++o) axpy_block<L>(outs[o] + i0, arrays[j] + i0, weights[o * m + j]);
 }
 
 }  // namespace

@@ -164,10 +164,14 @@ MassProperties mass_properties(const TetMeshView& mesh, const MassPropertiesOpti
       Sym3 C{a2.xx / 120.0, a2.yy / 120.0, a2.zz / 120.0,
              a2.xy / 120.0, a2.yz / 120.0, a2.zx / 120.0};
       add_outer(C, -vol, c);
-      const double tr = C.xx + C.yy + C.zz;
-      const double I[9] = {tr - C.xx, -C.xy, -C.zx, -C.xy,    tr - C.yy,
-                           -C.yz,     -C.zx, -C.yz, tr - C.zz};
-      for (int k = 0; k < 9; ++k) out.inertia[k] = rho * I[k];
+      // inertia = rho (tr(C) Id - C), the diagonal summed directly rather than as tr - C_ii.
+      double* I = out.inertia;
+      I[0] = rho * (C.yy + C.zz);
+      I[4] = rho * (C.zz + C.xx);
+      I[8] = rho * (C.xx + C.yy);
+      I[1] = I[3] = -rho * C.xy;
+      I[5] = I[7] = -rho * C.yz;
+      I[2] = I[6] = -rho * C.zx;
       out.centroid[0] = p0.x + c.x;
       out.centroid[1] = p0.y + c.y;
       out.centroid[2] = p0.z + c.z;

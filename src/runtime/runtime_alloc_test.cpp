@@ -4,7 +4,6 @@
 
 #include "core/counting_new.h"
 
-
 #include "cadinterp/cadinterp.h"
 #include "format/synthetic_asset.h"
 
