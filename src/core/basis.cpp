@@ -6,14 +6,7 @@
 
 namespace cadinterp::core {
 
-namespace {
-
-void sort_unique(std::vector<int>& v) {
-  std::sort(v.begin(), v.end());
-  v.erase(std::unique(v.begin(), v.end()), v.end());
-}
-
-}  // namespace
+namespace {}  // namespace
 
 Basis::Basis(int K, Degree degree) : degree_(degree), tree_(K) {
   leaf_samples_.resize(1);
@@ -85,19 +78,6 @@ bool Basis::is_sample_point(const IPoint& p, std::vector<int>& holders) const {
     if (!on_face) return false;
   }
   return true;
-}
-
-std::vector<int> Basis::neighbourhood(int leaf) const {
-  if (degree_ == Degree::Linear) return element_samples(leaf);
-  std::vector<int> touching;
-  tree_.leaves_touching(tree_.node(leaf).box, touching);
-  std::vector<int> out;
-  for (int m : touching) {
-    const auto& s = element_samples(m);
-    out.insert(out.end(), s.begin(), s.end());
-  }
-  sort_unique(out);
-  return out;
 }
 
 int Basis::bspline_id(const BsplineKey& key) {

@@ -72,8 +72,6 @@ class Basis {
   const std::vector<int>& element_samples(int leaf) const {
     return leaf_samples_[static_cast<std::size_t>(leaf)];
   }
-  /// The samples an element's interpolant may depend on: B(e) (linear) or Bbar(e) (cubic).
-  std::vector<int> neighbourhood(int leaf) const;
 
   /// The element-local form of the basis on `leaf` (see ElementBasis).
   ElementBasis element_basis(int leaf) const;

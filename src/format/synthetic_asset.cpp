@@ -93,12 +93,16 @@ BoxMesh synthetic_box(const SyntheticSpec& spec) {
 
 bool synthetic_host(const SyntheticSpec& spec, const double* x, std::vector<float>& positions,
                     std::vector<float>& fields) {
+  return synthetic_host(spec, synthetic_box(spec), x, positions, fields);
+}
+
+bool synthetic_host(const SyntheticSpec& spec, const BoxMesh& box, const double* x,
+                    std::vector<float>& positions, std::vector<float>& fields) {
   if (spec.infeasible_corner) {
     bool all = true;
     for (int d = 0; d < spec.K; ++d) all = all && x[d] > 0.8;
     if (all) return false;
   }
-  const BoxMesh box = synthetic_box(spec);
   double p[4] = {0, 0, 0, 0};
   for (int d = 0; d < spec.K && d < 4; ++d) p[d] = x[d];
   positions.resize(box.rest.size());
@@ -141,7 +145,7 @@ SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec) {
 
   std::vector<float> pos, fld;
   const core::HostFunction host = [&](const double* x, double* out) {
-    if (!synthetic_host(spec, x, pos, fld)) return false;
+    if (!synthetic_host(spec, box, x, pos, fld)) return false;
     for (std::size_t i = 0; i < npos; ++i) out[i] = pos[i];
     for (std::size_t i = 0; i < nfield; ++i) out[npos + i] = fld[i];
     return true;
@@ -203,7 +207,7 @@ SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec) {
       }
       // Canonical mesh: the host at the element centre (§4.2); where the centre itself is
       // infeasible, the element's first sample.
-      ed.canonical = synthetic_host(spec, centre, pos, fld) ? pos : ed.positions.front();
+      ed.canonical = synthetic_host(spec, box, centre, pos, fld) ? pos : ed.positions.front();
     }
     c.elements.push_back(std::move(ed));
   }

@@ -23,11 +23,6 @@ struct SyntheticSpec {
   bool check_face_centres = true;  ///< AdaptiveOptions::check_face_centres
 };
 
-/// The analytic host: positions (#V by 3) and, if spec.fields, field values (per vertex, then
-/// per tet) at parameters x. Returns false where the spec makes x infeasible.
-bool synthetic_host(const SyntheticSpec& spec, const double* x, std::vector<float>& positions,
-                    std::vector<float>& fields);
-
 /// The fixed topology of the box mesh.
 struct BoxMesh {
   std::uint32_t vertex_count = 0;
@@ -36,6 +31,15 @@ struct BoxMesh {
   std::vector<std::int32_t> tags;  ///< face of the box (0..5: -x, +x, -y, +y, -z, +z)
 };
 BoxMesh synthetic_box(const SyntheticSpec& spec);
+
+/// The analytic host: positions (#V by 3) and, if spec.fields, field values (per vertex, then
+/// per tet) at parameters x, on `box` = synthetic_box(spec). Returns false where the spec makes
+/// x infeasible.
+bool synthetic_host(const SyntheticSpec& spec, const BoxMesh& box, const double* x,
+                    std::vector<float>& positions, std::vector<float>& fields);
+/// As above, building the box first (convenient for one-off calls).
+bool synthetic_host(const SyntheticSpec& spec, const double* x, std::vector<float>& positions,
+                    std::vector<float>& fields);
 
 /// A complete asset content; `basis` owns the compiled basis content.basis points to.
 struct SyntheticAsset {
