@@ -18,6 +18,7 @@ PACKAGES=(
   flatbuffers-compiler  # flatc: the asset index schema
   libflatbuffers-dev
   libzstd-dev           # codecs
+  libsqlite3-dev        # the builder's sample store
   libmeshoptimizer-dev
   libdraco-dev
   libxxhash-dev         # blob checksums

@@ -53,7 +53,9 @@ typedef enum cadinterp_status {
   CADINTERP_E_OUTSIDE_DOMAIN = 12,     /**< x is outside the parameter box (or not finite) */
   CADINTERP_E_INFEASIBLE = 13,         /**< x lies where the model could not be built */
   CADINTERP_E_INTERNAL = 14,           /**< a bug: please report it with the message */
-  CADINTERP_E_NOT_FOUND = 15           /**< no field of that name */
+  CADINTERP_E_NOT_FOUND = 15,          /**< no field of that name */
+  CADINTERP_E_CANCELLED = 16,          /**< the caller cancelled (builder progress callback) */
+  CADINTERP_E_STORE_MISMATCH = 17      /**< a sample store written for another model/box */
 } cadinterp_status;
 
 /** An opened asset (opaque). */

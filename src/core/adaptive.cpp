@@ -20,38 +20,55 @@ double max_norm_error(const double* approx, const double* truth, int m) {
 
 namespace {
 
-// Host calls cached by grid point: every point is evaluated at most once per run.
-class HostCache {
+// Rows by grid point: every point is evaluated at most once per run, in batches.
+class PointRows {
  public:
-  HostCache(int K, int m, const std::vector<double>& lo, const std::vector<double>& hi,
-            const HostFunction& f)
-      : K_(K), m_(m), lo_(lo), hi_(hi), f_(f) {}
+  PointRows(int K, const std::vector<double>& lo, const std::vector<double>& hi,
+            AdaptiveProblem& problem)
+      : K_(K), lo_(lo), hi_(hi), problem_(problem) {}
 
-  /// The host's values at p, or nullptr when p is infeasible. The pointer stays valid for the
-  /// cache's lifetime (rows are allocated one by one and never move).
-  const double* at(const IPoint& p) {
+  /// Evaluates those of `points` not seen before, in one problem.evaluate() call.
+  void ensure(const std::vector<IPoint>& points) {
+    std::vector<int> rows;
+    std::vector<double> x;
+    for (const IPoint& p : points) {
+      if (index_.count(p)) continue;
+      const int row = static_cast<int>(feasible_.size());
+      index_.emplace(p, row);
+      feasible_.push_back(0);
+      rows.push_back(row);
+      for (int d = 0; d < K_; ++d) x.push_back(lo_[d] + (hi_[d] - lo_[d]) * to_unit(p[d]));
+    }
+    if (rows.empty()) return;
+    std::vector<char> ok(rows.size(), 0);
+    problem_.evaluate(rows, x, ok);
+    for (std::size_t i = 0; i < rows.size(); ++i)
+      feasible_[static_cast<std::size_t>(rows[i])] = ok[i] ? 1 : 0;
+  }
+  /// The row of p (evaluating it now if needed); *feasible tells whether the host succeeded.
+  int row(const IPoint& p, bool* feasible = nullptr) {
     auto it = index_.find(p);
     if (it == index_.end()) {
-      auto row = std::make_unique<double[]>(static_cast<std::size_t>(m_));
-      double x[kMaxDim];
-      for (int d = 0; d < K_; ++d) x[d] = lo_[d] + (hi_[d] - lo_[d]) * to_unit(p[d]);
-      bool ok = f_(x, row.get());
-      for (int i = 0; ok && i < m_; ++i) ok = std::isfinite(row[static_cast<std::size_t>(i)]);
-      if (!ok) row.reset();
-      it = index_.emplace(p, rows_.size()).first;
-      rows_.push_back(std::move(row));
+      ensure({p});
+      it = index_.find(p);
     }
-    return rows_[it->second].get();
+    if (feasible) *feasible = feasible_[static_cast<std::size_t>(it->second)] != 0;
+    return it->second;
   }
-  int calls() const { return static_cast<int>(rows_.size()); }
+  bool feasible(const IPoint& p) {
+    bool ok = false;
+    row(p, &ok);
+    return ok;
+  }
+  const std::vector<char>& feasible_rows() const { return feasible_; }
 
  private:
-  int K_, m_;
+  int K_;
   const std::vector<double>& lo_;
   const std::vector<double>& hi_;
-  const HostFunction& f_;
-  std::unordered_map<IPoint, std::size_t, IPointHash> index_;
-  std::vector<std::unique_ptr<double[]>> rows_;  // null for infeasible points
+  AdaptiveProblem& problem_;
+  std::unordered_map<IPoint, int, IPointHash> index_;
+  std::vector<char> feasible_;
 };
 
 int level_sum(const KdTree::Node& n, int K) {
@@ -60,12 +77,57 @@ int level_sum(const KdTree::Node& n, int K) {
   return s;
 }
 
+IPoint centre_of(const KdTree::Node& node, int K) {
+  IPoint c{};
+  for (int d = 0; d < K; ++d) c[d] = node.box.lo[d] + (node.box.hi[d] - node.box.lo[d]) / 2;
+  return c;
+}
+
+// The value-vector problem of adaptive_sample: rows hold the host's m values.
+class ValueProblem final : public AdaptiveProblem {
+ public:
+  ValueProblem(int K, int m, const HostFunction& f, const ErrorMetric& metric)
+      : K_(K), m_(m), f_(f), metric_(metric) {}
+  void evaluate(const std::vector<int>& rows, const std::vector<double>& x,
+                std::vector<char>& feasible) override {
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const auto r = static_cast<std::size_t>(rows[i]);
+      if (values_.size() <= r) values_.resize(r + 1);
+      std::vector<double> v(static_cast<std::size_t>(m_));
+      bool ok = f_(&x[i * static_cast<std::size_t>(K_)], v.data());
+      for (int j = 0; ok && j < m_; ++j) ok = std::isfinite(v[static_cast<std::size_t>(j)]);
+      feasible[i] = ok ? 1 : 0;
+      if (ok) values_[r] = std::move(v);
+    }
+  }
+  double interpolation_error(int at, int, const int* terms, const double* psi, int n) override {
+    interp_.assign(static_cast<std::size_t>(m_), 0.0);
+    for (int t = 0; t < n; ++t) {
+      const double* v = value(terms[t]);
+      for (int i = 0; i < m_; ++i) interp_[static_cast<std::size_t>(i)] += psi[t] * v[i];
+    }
+    return metric_(interp_.data(), value(at), m_);
+  }
+  double midpoint_error(int a, int b, int c) override {
+    interp_.resize(static_cast<std::size_t>(m_));
+    for (int i = 0; i < m_; ++i)
+      interp_[static_cast<std::size_t>(i)] = 0.5 * (value(a)[i] + value(b)[i]);
+    return metric_(interp_.data(), value(c), m_);
+  }
+  const double* value(int row) const { return values_[static_cast<std::size_t>(row)].data(); }
+
+ private:
+  int K_, m_;
+  const HostFunction& f_;
+  const ErrorMetric& metric_;
+  std::vector<std::vector<double>> values_;  // per row; empty when infeasible
+  std::vector<double> interp_;
+};
+
 }  // namespace
 
-AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
-                               const std::vector<double>& hi, const HostFunction& f,
-                               const AdaptiveOptions& opt) {
-  if (m < 1) throw std::invalid_argument("adaptive_sample: m must be at least 1");
+AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector<double>& hi,
+                         AdaptiveProblem& problem, const AdaptiveOptions& opt) {
   if (static_cast<int>(lo.size()) != K || static_cast<int>(hi.size()) != K)
     throw std::invalid_argument("adaptive_sample: domain bounds need K values");
   for (int d = 0; d < K; ++d)
@@ -74,24 +136,27 @@ AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
   if (opt.max_level < 1 || opt.max_level >= kMaxLevel)
     throw std::invalid_argument("adaptive_sample: max_level outside 1..kMaxLevel-1");
   if (!(opt.tolerance >= 0.0)) throw std::invalid_argument("adaptive_sample: negative tolerance");
-  if (!f) throw std::invalid_argument("adaptive_sample: no host function");
-  const ErrorMetric metric = opt.metric ? opt.metric : ErrorMetric(max_norm_error);
 
-  AdaptiveResult res{Basis(K, opt.degree)};
+  AdaptiveRun res{Basis(K, opt.degree)};
   Basis& basis = res.basis;
   const KdTree& tree = basis.tree();
-  HostCache host(K, m, lo, hi, f);
-  auto sample_ok = [&](int k) { return host.at(basis.sample(k)) != nullptr; };
-  for (int k = 0; k < basis.sample_count(); ++k) sample_ok(k);
-
-  auto split = [&](int leaf, int dir) {
-    for (int k : basis.refine(leaf, dir)) sample_ok(k);
-    ++res.splits;
+  PointRows rows(K, lo, hi, problem);
+  auto all_samples = [&] {
+    std::vector<IPoint> pts;
+    for (int k = 0; k < basis.sample_count(); ++k) pts.push_back(basis.sample(k));
+    rows.ensure(pts);
   };
-  // Initial refinement: once in every direction (§4.2).
+  all_samples();
+
+  // Initial refinement: once in every direction (§4.2). The new samples of one direction are
+  // one wave.
   for (int d = 0; d < K; ++d) {
-    const std::vector<int> leaves = tree.leaves();
-    for (int leaf : leaves) split(leaf, d);
+    const std::vector<int> leaves = tree.leaves();  // refine() changes the tree's list
+    for (int leaf : leaves) {
+      basis.refine(leaf, d);
+      ++res.splits;
+    }
+    all_samples();
   }
 
   // Largest element first (smallest level sum), ties by node id: deterministic.
@@ -108,116 +173,193 @@ AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
   for (int leaf : tree.leaves()) push(leaf);
   res.leaf_error.assign(static_cast<std::size_t>(tree.node_count()),
                         std::numeric_limits<double>::quiet_NaN());
+  res.centre_row.assign(static_cast<std::size_t>(tree.node_count()), -1);
 
-  std::vector<double> interp(static_cast<std::size_t>(m)), mean(static_cast<std::size_t>(m));
-  while (!queue.empty()) {
-    const int leaf = queue.top().second;
-    queue.pop();
-    queued[static_cast<std::size_t>(leaf)] = 0;
-    if (!tree.is_leaf(leaf)) continue;
-    const KdTree::Node node = tree.node(leaf);
-
-    int widest = -1;  // splittable direction with the lowest level
+  auto terms_feasible = [&](const ElementBasis& eb) {
+    return std::all_of(eb.terms.begin(), eb.terms.end(),
+                       [&](int k) { return rows.feasible(basis.sample(k)); });
+  };
+  auto face_centres = [&](const KdTree::Node& node, std::vector<IPoint>& out) {
+    const IPoint c = centre_of(node, K);
     for (int d = 0; d < K; ++d)
-      if (node.level[d] < opt.max_level && (widest < 0 || node.level[d] < node.level[widest]))
-        widest = d;
-
-    IPoint c{};
-    for (int d = 0; d < K; ++d) c[d] = node.box.lo[d] + (node.box.hi[d] - node.box.lo[d]) / 2;
-    const ElementBasis eb = basis.element_basis(leaf);
-    const double* fc = host.at(c);
-    const bool feasible = fc != nullptr && std::all_of(eb.terms.begin(), eb.terms.end(), sample_ok);
-
-    int dir = -1;
-    double err = std::numeric_limits<double>::infinity();
-    if (!feasible) {
-      if (opt.refine_infeasible) dir = widest;
-    } else {
-      // Error of the interpolant against the host at a grid point of the element.
-      std::vector<double> psi(eb.terms.size());
-      auto error_at = [&](const IPoint& p, const double* truth) {
-        double u[kMaxDim];
-        for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
-        eval_element_basis(basis, eb, u, psi.data(), nullptr);
-        std::fill(interp.begin(), interp.end(), 0.0);
-        for (std::size_t t = 0; t < eb.terms.size(); ++t) {
-          const double* v = host.at(basis.sample(eb.terms[t]));
-          for (int i = 0; i < m; ++i) interp[static_cast<std::size_t>(i)] += psi[t] * v[i];
-        }
-        return metric(interp.data(), truth, m);
-      };
-      err = error_at(c, fc);
-      if (opt.check_face_centres)
-        for (int d = 0; d < K && std::isfinite(err); ++d)
-          for (int side = 0; side < 2; ++side) {
-            IPoint p = c;
-            p[d] = side ? node.box.hi[d] : node.box.lo[d];
-            const double* fp = host.at(p);
-            err = fp ? std::max(err, error_at(p, fp)) : std::numeric_limits<double>::infinity();
-          }
-      if (err > opt.tolerance && widest >= 0) {
-        double best = -1.0;
-        for (int d = 0; d < K; ++d) {
-          if (node.level[d] >= opt.max_level) continue;
-          IPoint a = c, b = c;
-          a[d] = node.box.lo[d];
-          b[d] = node.box.hi[d];
-          const double* fa = host.at(a);
-          const double* fb = host.at(b);
-          double e = std::numeric_limits<double>::infinity();
-          if (fa && fb) {
-            for (int i = 0; i < m; ++i) mean[static_cast<std::size_t>(i)] = 0.5 * (fa[i] + fb[i]);
-            e = metric(mean.data(), fc, m);
-          }
-          // Ties go to the coarser direction, then to the lower index.
-          if (e > best || (e == best && node.level[d] < node.level[dir])) {
-            best = e;
-            dir = d;
-          }
-        }
-        if (dir < 0) dir = widest;  // a metric returning NaN everywhere
+      for (int side = 0; side < 2; ++side) {
+        IPoint p = c;
+        p[d] = side ? node.box.hi[d] : node.box.lo[d];
+        out.push_back(p);
       }
+  };
+
+  std::vector<double> psi;
+  std::vector<int> term_rows;
+  bool stop = false;
+  while (!queue.empty() && !stop) {
+    // One wave: every queued element. Its points are evaluated together (centres, then the face
+    // centres of the feasible ones); elements queued while the wave is processed form the next.
+    std::vector<int> wave;
+    while (!queue.empty()) {
+      const int leaf = queue.top().second;
+      queue.pop();
+      queued[static_cast<std::size_t>(leaf)] = 0;
+      if (tree.is_leaf(leaf)) wave.push_back(leaf);
     }
-    res.leaf_error[static_cast<std::size_t>(leaf)] = err;
-    if (dir < 0) continue;
-    if (basis.sample_count() >= opt.max_samples) {
-      res.budget_exhausted = true;
-      break;
+    ++res.waves;
+    {
+      std::vector<IPoint> pts;
+      for (int leaf : wave) pts.push_back(centre_of(tree.node(leaf), K));
+      rows.ensure(pts);
+      pts.clear();
+      for (int leaf : wave) {
+        const KdTree::Node& node = tree.node(leaf);
+        if (rows.feasible(centre_of(node, K)) && terms_feasible(basis.element_basis(leaf)))
+          face_centres(node, pts);
+      }
+      if (opt.check_face_centres) rows.ensure(pts);
     }
 
-    // Leaves whose interpolant may change: those touching the element (linear), and for cubic
-    // also their neighbours (Bbar reaches one element further).
-    std::vector<int> affected;
-    tree.leaves_touching(node.box, affected);
-    split(leaf, dir);
-    if (opt.degree == Degree::Cubic) {
-      std::vector<int> ring;
+    for (int leaf : wave) {
+      if (!tree.is_leaf(leaf)) continue;
+      const KdTree::Node node = tree.node(leaf);
+
+      int widest = -1;  // splittable direction with the lowest level
+      for (int d = 0; d < K; ++d)
+        if (node.level[d] < opt.max_level && (widest < 0 || node.level[d] < node.level[widest]))
+          widest = d;
+
+      const IPoint c = centre_of(node, K);
+      bool centre_ok = false;
+      const int crow = rows.row(c, &centre_ok);
+      res.centre_row[static_cast<std::size_t>(leaf)] = crow;
+      const ElementBasis eb = basis.element_basis(leaf);
+      const bool feasible = centre_ok && terms_feasible(eb);
+
+      int dir = -1;
+      double err = std::numeric_limits<double>::infinity();
+      if (!feasible) {
+        if (opt.refine_infeasible) dir = widest;
+      } else {
+        term_rows.clear();
+        for (int k : eb.terms) term_rows.push_back(rows.row(basis.sample(k)));
+        psi.resize(eb.terms.size());
+        // Error of the interpolant against the host at a grid point of the element.
+        auto error_at = [&](const IPoint& p, int prow) {
+          double u[kMaxDim];
+          for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
+          eval_element_basis(basis, eb, u, psi.data(), nullptr);
+          return problem.interpolation_error(prow, crow, term_rows.data(), psi.data(),
+                                             static_cast<int>(term_rows.size()));
+        };
+        err = error_at(c, crow);
+        if (opt.check_face_centres) {
+          std::vector<IPoint> faces;
+          face_centres(node, faces);
+          for (const IPoint& p : faces) {
+            if (!std::isfinite(err)) break;
+            bool ok = false;
+            const int prow = rows.row(p, &ok);
+            err = ok ? std::max(err, error_at(p, prow)) : std::numeric_limits<double>::infinity();
+          }
+        }
+        if (err > opt.tolerance && widest >= 0) {
+          double best = -1.0;
+          for (int d = 0; d < K; ++d) {
+            if (node.level[d] >= opt.max_level) continue;
+            IPoint a = c, b = c;
+            a[d] = node.box.lo[d];
+            b[d] = node.box.hi[d];
+            bool oka = false, okb = false;
+            const int ra = rows.row(a, &oka), rb = rows.row(b, &okb);
+            const double e = oka && okb ? problem.midpoint_error(ra, rb, crow)
+                                        : std::numeric_limits<double>::infinity();
+            // Ties go to the coarser direction, then to the lower index.
+            if (e > best || (e == best && node.level[d] < node.level[dir])) {
+              best = e;
+              dir = d;
+            }
+          }
+          if (dir < 0) dir = widest;  // a metric returning NaN everywhere
+        }
+      }
+      res.leaf_error[static_cast<std::size_t>(leaf)] = err;
+      if (dir < 0) continue;
+      if (basis.sample_count() >= opt.max_samples) {
+        res.budget_exhausted = true;
+        stop = true;
+        break;
+      }
+
+      // Leaves whose interpolant may change: those touching the element (linear), and for cubic
+      // also their neighbours (Bbar reaches one element further).
+      std::vector<int> affected;
+      tree.leaves_touching(node.box, affected);
+      const std::vector<int> added = basis.refine(leaf, dir);
+      ++res.splits;
+      {
+        std::vector<IPoint> pts;
+        for (int k : added) pts.push_back(basis.sample(k));
+        rows.ensure(pts);  // the new samples are the centre (Eq. 10), already evaluated
+      }
+      if (opt.degree == Degree::Cubic) {
+        std::vector<int> ring;
+        for (int n : affected)
+          if (tree.is_leaf(n)) tree.leaves_touching(tree.node(n).box, ring);
+        affected.insert(affected.end(), ring.begin(), ring.end());
+      }
+      const int kid0 = tree.node(leaf).child[0], kid1 = tree.node(leaf).child[1];
+      push(kid0);
+      push(kid1);
       for (int n : affected)
-        if (tree.is_leaf(n)) tree.leaves_touching(tree.node(n).box, ring);
-      affected.insert(affected.end(), ring.begin(), ring.end());
+        if (tree.is_leaf(n)) push(n);
+      res.leaf_error.resize(static_cast<std::size_t>(tree.node_count()),
+                            std::numeric_limits<double>::quiet_NaN());
+      res.centre_row.resize(static_cast<std::size_t>(tree.node_count()), -1);
     }
-    const int kid0 = tree.node(leaf).child[0], kid1 = tree.node(leaf).child[1];
-    push(kid0);
-    push(kid1);
-    for (int n : affected)
-      if (tree.is_leaf(n)) push(n);
-    res.leaf_error.resize(static_cast<std::size_t>(tree.node_count()),
-                          std::numeric_limits<double>::quiet_NaN());
   }
 
-  res.m = m;
-  res.host_calls = host.calls();
-  res.values.assign(static_cast<std::size_t>(basis.sample_count()) * static_cast<std::size_t>(m),
-                    std::numeric_limits<double>::quiet_NaN());
-  res.infeasible.assign(static_cast<std::size_t>(basis.sample_count()), true);
-  for (int k = 0; k < basis.sample_count(); ++k) {
-    const double* v = host.at(basis.sample(k));
-    if (!v) continue;
-    res.infeasible[static_cast<std::size_t>(k)] = false;
-    std::copy(v, v + m, res.values.begin() + static_cast<std::ptrdiff_t>(k) * m);
+  // Every leaf gets a centre row (its canonical mesh is the host at its centre, §4.2), also the
+  // leaves the budget stopped before they were checked.
+  {
+    std::vector<IPoint> pts;
+    for (int leaf : tree.leaves()) pts.push_back(centre_of(tree.node(leaf), K));
+    rows.ensure(pts);
   }
   res.leaf_error.resize(static_cast<std::size_t>(tree.node_count()),
                         std::numeric_limits<double>::quiet_NaN());
+  res.centre_row.resize(static_cast<std::size_t>(tree.node_count()), -1);
+  for (int leaf : tree.leaves())
+    res.centre_row[static_cast<std::size_t>(leaf)] = rows.row(centre_of(tree.node(leaf), K));
+  res.sample_row.resize(static_cast<std::size_t>(basis.sample_count()));
+  for (int k = 0; k < basis.sample_count(); ++k)
+    res.sample_row[static_cast<std::size_t>(k)] = rows.row(basis.sample(k));
+  res.row_feasible = rows.feasible_rows();
+  return res;
+}
+
+AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
+                               const std::vector<double>& hi, const HostFunction& f,
+                               const AdaptiveOptions& opt) {
+  if (m < 1) throw std::invalid_argument("adaptive_sample: m must be at least 1");
+  if (!f) throw std::invalid_argument("adaptive_sample: no host function");
+  const ErrorMetric metric = opt.metric ? opt.metric : ErrorMetric(max_norm_error);
+  ValueProblem problem(K, m, f, metric);
+  AdaptiveRun run = adaptive_run(K, lo, hi, problem, opt);
+
+  AdaptiveResult res{std::move(run.basis)};
+  res.m = m;
+  res.host_calls = static_cast<int>(run.row_feasible.size());
+  res.splits = run.splits;
+  res.budget_exhausted = run.budget_exhausted;
+  res.leaf_error = std::move(run.leaf_error);
+  const int S = res.basis.sample_count();
+  res.values.assign(static_cast<std::size_t>(S) * static_cast<std::size_t>(m),
+                    std::numeric_limits<double>::quiet_NaN());
+  res.infeasible.assign(static_cast<std::size_t>(S), true);
+  for (int k = 0; k < S; ++k) {
+    const int r = run.sample_row[static_cast<std::size_t>(k)];
+    if (!run.row_feasible[static_cast<std::size_t>(r)]) continue;
+    res.infeasible[static_cast<std::size_t>(k)] = false;
+    const double* v = problem.value(r);
+    std::copy(v, v + m, res.values.begin() + static_cast<std::ptrdiff_t>(k) * m);
+  }
   return res;
 }
 

@@ -65,4 +65,43 @@ AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,
                                const std::vector<double>& hi, const HostFunction& f,
                                const AdaptiveOptions& options);
 
+/// The driver over something more general than a value vector per point: the builder's meshes,
+/// whose value at a sample depends on the element it is mapped into (paper §6), so the problem
+/// computes the errors itself. Points are "rows": every distinct grid point the driver needs gets
+/// the next row number, in a deterministic order, and is evaluated once.
+class AdaptiveProblem {
+ public:
+  virtual ~AdaptiveProblem() = default;
+  /// Evaluates rows[i] at x[i * K .. i * K + K) (real coordinates) for all i, in any order and
+  /// possibly in parallel; sets feasible[i]. The driver asks for a whole refinement wave at once.
+  virtual void evaluate(const std::vector<int>& rows, const std::vector<double>& x,
+                        std::vector<char>& feasible) = 0;
+  /// Error of the interpolant sum_t psi[t] * value(terms[t]) (n terms, all feasible) against
+  /// value(at) (feasible), for the element whose centre is row `centre`; larger is worse, and
+  /// the driver compares it with AdaptiveOptions::tolerance.
+  virtual double interpolation_error(int at, int centre, const int* terms, const double* psi,
+                                     int n) = 0;
+  /// The per-direction error: (value(a) + value(b)) / 2 against value(c), all feasible.
+  virtual double midpoint_error(int a, int b, int c) = 0;
+};
+
+struct AdaptiveRun {
+  explicit AdaptiveRun(Basis b) : basis(std::move(b)) {}
+  Basis basis;
+  std::vector<int> sample_row;     ///< per basis sample: its row
+  std::vector<int> centre_row;     ///< per tree node: the row of its centre (-1 if never asked)
+  std::vector<char> row_feasible;  ///< per row
+  std::vector<double> leaf_error;  ///< per tree node: last error of a leaf (NaN if unknown)
+  int splits = 0;
+  int waves = 0;
+  bool budget_exhausted = false;
+};
+
+/// Runs the driver (the algorithm of adaptive_sample) over `problem`. Each pass takes every
+/// queued element, evaluates all their new centre and face-centre points in one
+/// problem.evaluate() call, then decides the splits in a fixed order; so the result depends only
+/// on the values, never on how evaluate() schedules them. Exceptions from `problem` propagate.
+AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector<double>& hi,
+                         AdaptiveProblem& problem, const AdaptiveOptions& options);
+
 }  // namespace cadinterp::core

@@ -1,0 +1,381 @@
+#include "builder/build.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "builder/sample_store.h"
+#include "builder/surface_distance.h"
+#include "cadinterp/cadinterp_version.h"
+#include "core/adaptive.h"
+
+namespace cadinterp::builder {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string hex_double(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%a", v);
+  return buf;
+}
+
+// The field layout every feasible sample of a build must share (cadinterp_sample_add_field).
+struct FieldSignature {
+  std::vector<std::string> names;
+  std::vector<int> locations, components;
+  static FieldSignature of(const Sample& s) {
+    FieldSignature f;
+    for (const Field& x : s.fields) {
+      f.names.push_back(x.name);
+      f.locations.push_back(x.location);
+      f.components.push_back(x.components);
+    }
+    return f;
+  }
+  bool operator==(const FieldSignature& o) const {
+    return names == o.names && locations == o.locations && components == o.components;
+  }
+};
+
+// The driver's problem over meshes: rows are host samples (from the store or the executor);
+// errors are measured on meshes mapped into the element's canonical combinatorics.
+class MeshProblem final : public core::AdaptiveProblem {
+ public:
+  MeshProblem(const Host& host, const BuildOptions& opt, const Mapper& mapper, Executor& exec,
+              SampleStore* store, cadinterp_build_report& report, Clock::time_point start)
+      : host_(host),
+        opt_(opt),
+        mapper_(mapper),
+        exec_(exec),
+        store_(store),
+        report_(report),
+        start_(start) {}
+
+  void evaluate(const std::vector<int>& rows, const std::vector<double>& x,
+                std::vector<char>& feasible) override {
+    const std::size_t K = static_cast<std::size_t>(host_.dim());
+    std::vector<std::vector<double>> pending;
+    std::vector<int> pending_rows;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      std::vector<double> xi(x.begin() + static_cast<std::ptrdiff_t>(i * K),
+                             x.begin() + static_cast<std::ptrdiff_t>((i + 1) * K));
+      const auto r = static_cast<std::size_t>(rows[i]);
+      if (samples_.size() <= r) {
+        samples_.resize(r + 1);
+        points_.resize(r + 1);
+      }
+      points_[r] = xi;
+      Sample s;
+      if (store_ && store_->get(xi, s)) {
+        ++report_.store_hits;
+        samples_[r] = std::make_shared<const Sample>(std::move(s));
+      } else {
+        pending.push_back(std::move(xi));
+        pending_rows.push_back(rows[i]);
+      }
+    }
+    done_ += static_cast<int>(rows.size() - pending.size());  // store hits count as done
+    std::size_t delivered = 0;
+    const bool complete = exec_.run(
+        pending,
+        [&](std::size_t i, Sample&& s) {
+          if (store_) store_->put(pending[i], s);
+          ++report_.host_evaluations;
+          report_.host_seconds += s.host_seconds;
+          samples_[static_cast<std::size_t>(pending_rows[i])] =
+              std::make_shared<const Sample>(std::move(s));
+          ++done_;
+          ++delivered;
+          host_seconds_done_ += samples_[static_cast<std::size_t>(pending_rows[i])]->host_seconds;
+          cancel_ = cancel_ || report_progress(static_cast<int>(pending.size() - delivered));
+        },
+        [&] { return cancel_; });
+    if (!complete || cancel_) throw BuildCancelled();
+    // Decided in row order, after the whole wave: the outcome cannot depend on which thread
+    // finished first.
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const auto r = static_cast<std::size_t>(rows[i]);
+      std::shared_ptr<const Sample>& s = samples_[r];
+      if (s->feasible) {
+        const FieldSignature sig = FieldSignature::of(*s);
+        if (!signature_) {
+          signature_ = sig;
+        } else if (!(sig == *signature_)) {
+          auto bad = std::make_shared<Sample>();
+          bad->message = "the host's fields differ from those of the build's first sample";
+          s = bad;
+        }
+      }
+      feasible[i] = s->feasible ? 1 : 0;
+      if (!s->feasible) ++report_.infeasible_points;
+    }
+    report_progress(0);
+  }
+
+  double interpolation_error(int at, int centre, const int* terms, const double* psi,
+                             int n) override {
+    const Sample& canon = sample(centre);
+    const std::size_t nv3 = canon.vertices.size();
+    std::vector<double> V(nv3, 0.0);
+    const std::size_t nfields = canon.fields.size();
+    std::vector<std::vector<double>> F(nfields);
+    for (std::size_t f = 0; f < nfields; ++f) F[f].assign(canon.fields[f].values.size(), 0.0);
+    for (int t = 0; t < n; ++t) {
+      const MappedSample* m = mapped(terms[t], centre);
+      if (!m) return std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < nv3; ++i) V[i] += psi[t] * m->vertices[i];
+      for (std::size_t f = 0; f < nfields; ++f)
+        for (std::size_t i = 0; i < F[f].size(); ++i) F[f][i] += psi[t] * m->fields[f][i];
+    }
+    const Sample& truth = sample(at);
+    const double diag = truth.bbox_diagonal();
+    double err = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles) /
+                 (diag * opt_.geometry_tolerance);
+    if (nfields) {
+      const MappedSample* mt = mapped(at, centre);
+      if (!mt) return std::numeric_limits<double>::infinity();
+      for (std::size_t f = 0; f < nfields; ++f) {
+        const std::vector<double>& tv = truth.fields[f].values;
+        const auto mm = std::minmax_element(tv.begin(), tv.end());
+        // A constant field is measured against its magnitude instead (and 1 if it is 0).
+        double range = *mm.second - *mm.first;
+        if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
+        double e = 0;
+        for (std::size_t i = 0; i < F[f].size(); ++i)
+          e = std::max(e, std::abs(F[f][i] - mt->fields[f][i]));
+        err = std::max(err, e / (range * opt_.field_tolerance));
+      }
+    }
+    return err;
+  }
+
+  double midpoint_error(int a, int b, int c) override {
+    const int terms[2] = {a, b};
+    const double psi[2] = {0.5, 0.5};
+    return interpolation_error(c, c, terms, psi, 2);
+  }
+
+  const Sample& sample(int row) const { return *samples_[static_cast<std::size_t>(row)]; }
+  const std::vector<double>& point(int row) const { return points_[static_cast<std::size_t>(row)]; }
+  int rows() const { return static_cast<int>(samples_.size()); }
+
+  /// Row `src` in the combinatorics of row `canon`; nullptr (and why(src, canon)) on failure.
+  const MappedSample* mapped(int src, int canon) {
+    const auto key = std::make_pair(src, canon);
+    auto it = maps_.find(key);
+    if (it == maps_.end()) {
+      Entry e;
+      e.map = std::make_shared<MappedSample>();
+      if (!mapper_.map(sample(src), sample(canon), *e.map, e.why)) e.map.reset();
+      it = maps_.emplace(key, std::move(e)).first;
+    }
+    return it->second.map.get();
+  }
+  const std::string& why(int src, int canon) { return maps_[std::make_pair(src, canon)].why; }
+  void forget_maps() { maps_.clear(); }
+
+  /// Calls the progress callback; returns true to cancel.
+  bool report_progress(int queued) {
+    if (!opt_.progress) return false;
+    cadinterp_progress p{};
+    p.samples_done = done_;
+    p.samples_queued = queued;
+    p.elements = elements_;
+    p.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
+    const int evaluated = report_.host_evaluations;
+    p.eta_seconds = evaluated > 0 && queued > 0
+                        ? host_seconds_done_ / evaluated * queued / std::max(1, exec_.concurrency())
+                        : (queued > 0 ? -1.0 : 0.0);
+    return opt_.progress(p);
+  }
+  void set_elements(int n) { elements_ = n; }
+
+ private:
+  struct Entry {
+    std::shared_ptr<MappedSample> map;
+    std::string why;
+  };
+  const Host& host_;
+  const BuildOptions& opt_;
+  const Mapper& mapper_;
+  Executor& exec_;
+  SampleStore* store_;
+  cadinterp_build_report& report_;
+  Clock::time_point start_;
+  std::vector<std::shared_ptr<const Sample>> samples_;  // per row
+  std::vector<std::vector<double>> points_;             // per row
+  std::optional<FieldSignature> signature_;
+  std::map<std::pair<int, int>, Entry> maps_;
+  int done_ = 0, elements_ = 0;
+  double host_seconds_done_ = 0;
+  bool cancel_ = false;
+};
+
+std::vector<float> to_float(const std::vector<double>& v) {
+  return std::vector<float>(v.begin(), v.end());
+}
+
+}  // namespace
+
+std::string store_fingerprint(const Host& host) {
+  std::string fp = host.name() + "|" + host.identity() + "|K=" + std::to_string(host.dim());
+  for (int d = 0; d < host.dim(); ++d)
+    fp += "|" + host.names()[static_cast<std::size_t>(d)] + "[" +
+          hex_double(host.lower()[static_cast<std::size_t>(d)]) + "," +
+          hex_double(host.upper()[static_cast<std::size_t>(d)]) + "]";
+  return fp;
+}
+
+std::string options_json(const BuildOptions& o, const char* mapper_name) {
+  return std::string("{\"degree\":") + std::to_string(static_cast<int>(o.degree)) +
+         ",\"geometry_tolerance\":\"" + hex_double(o.geometry_tolerance) +
+         "\",\"field_tolerance\":\"" + hex_double(o.field_tolerance) +
+         "\",\"max_samples\":" + std::to_string(o.max_samples) +
+         ",\"max_depth\":" + std::to_string(o.max_depth) + ",\"position_max_abs_error\":\"" +
+         hex_double(o.position_max_abs_error) + "\",\"mapper\":\"" + mapper_name + "\"}";
+}
+
+BuildResult build(const Host& host, const BuildOptions& opt) {
+  if (!(opt.geometry_tolerance > 0) || !(opt.field_tolerance > 0))
+    throw std::invalid_argument("build: tolerances must be positive");
+  if (opt.max_samples < 2) throw std::invalid_argument("build: max_samples must be at least 2");
+  if (opt.max_depth < 1 || opt.max_depth >= core::kMaxLevel)
+    throw std::invalid_argument("build: max_depth must be 1.." +
+                                std::to_string(core::kMaxLevel - 1));
+  if (opt.threads < 0) throw std::invalid_argument("build: threads must be >= 0");
+  if (!(opt.position_max_abs_error >= 0))
+    throw std::invalid_argument("build: position_max_abs_error must be >= 0");
+  const auto start = Clock::now();
+
+  BuildResult out;
+  cadinterp_build_report& rep = out.report;
+  const IdentityMapper identity;
+  const Mapper& mapper = opt.mapper ? *opt.mapper : identity;
+  const int threads = opt.threads > 0
+                          ? opt.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  ThreadPoolExecutor pool(host, threads);
+  Executor& exec = opt.executor ? *opt.executor : pool;
+
+  std::unique_ptr<SampleStore> store;
+  if (!opt.store_path.empty())
+    store = std::make_unique<SampleStore>(opt.store_path, store_fingerprint(host));
+
+  MeshProblem problem(host, opt, mapper, exec, store.get(), rep, start);
+  core::AdaptiveOptions ao;
+  ao.degree = opt.degree;
+  ao.tolerance = 1.0;  // errors are already relative to their targets
+  ao.max_samples = opt.max_samples;
+  ao.max_level = opt.max_depth;
+  core::AdaptiveRun run = core::adaptive_run(host.dim(), host.lower(), host.upper(), problem, ao);
+
+  const core::Basis& basis = run.basis;
+  const int S = basis.sample_count();
+  std::vector<bool> infeasible_sample(static_cast<std::size_t>(S));
+  bool any = false;
+  for (int k = 0; k < S; ++k) {
+    const bool ok =
+        run.row_feasible[static_cast<std::size_t>(run.sample_row[static_cast<std::size_t>(k)])] !=
+        0;
+    infeasible_sample[static_cast<std::size_t>(k)] = !ok;
+    any = any || ok;
+  }
+  if (!any) throw std::runtime_error("build: the host failed at every sample point");
+  for (int r = 0; r < problem.rows(); ++r)
+    if (!problem.sample(r).feasible)
+      out.infeasible.push_back({problem.point(r), problem.sample(r).message});
+
+  core::CompiledBasis cb =
+      core::CompiledBasis::compile(basis, host.lower(), host.upper(), &infeasible_sample);
+  const std::vector<int> leaves = basis.tree().leaves();
+  format::AssetContent& c = out.content;
+  std::vector<std::uint8_t> element_ok(leaves.size(), 1);
+
+  // Per element: canonical mesh = the host at its centre (§4.2); each term's sample mapped into
+  // it. An element whose centre failed or whose terms cannot be mapped is infeasible.
+  const Sample* field_source = nullptr;
+  for (std::size_t e = 0; e < leaves.size(); ++e) {
+    format::ElementData ed;
+    const int leaf = leaves[e];
+    const double err = run.leaf_error[static_cast<std::size_t>(leaf)];
+    ed.error_estimate = std::isfinite(err) ? err * opt.geometry_tolerance : -1.0;
+    const int crow = run.centre_row[static_cast<std::size_t>(leaf)];
+    int n = 0;
+    const int* terms = cb.element_samples(static_cast<int>(e), &n);
+    bool ok =
+        cb.element_feasible(static_cast<int>(e)) && crow >= 0 && problem.sample(crow).feasible;
+    std::vector<const MappedSample*> maps;
+    for (int t = 0; ok && t < n; ++t) {
+      const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
+      const MappedSample* m = problem.mapped(row, crow);
+      if (!m) {
+        out.infeasible.push_back(
+            {problem.point(crow), "element " + std::to_string(e) + ": " + problem.why(row, crow)});
+        ok = false;
+      }
+      maps.push_back(m);
+    }
+    if (ok) {
+      const Sample& canon = problem.sample(crow);
+      if (!field_source) field_source = &canon;
+      ed.vertex_count = static_cast<std::uint32_t>(canon.vertex_count());
+      ed.tets = canon.tets;
+      ed.triangles = canon.triangles;
+      ed.triangle_tags = canon.triangle_tags;
+      ed.canonical = to_float(canon.vertices);
+      for (const MappedSample* m : maps) {
+        ed.positions.push_back(to_float(m->vertices));
+        if (!m->fields.empty()) {
+          std::vector<float> f;
+          for (const auto& fv : m->fields) f.insert(f.end(), fv.begin(), fv.end());
+          ed.fields.push_back(std::move(f));
+        }
+      }
+      rep.stored_meshes += n;
+      if (std::isfinite(err)) rep.max_error = std::max(rep.max_error, err);
+    } else {
+      element_ok[e] = 0;
+      ++rep.infeasible_elements;
+    }
+    c.elements.push_back(std::move(ed));
+  }
+  problem.forget_maps();
+  if (!field_source) throw std::runtime_error("build: no element could be built (all infeasible)");
+
+  core::CompiledBasis::Parts parts = cb.parts();
+  for (std::size_t e = 0; e < leaves.size(); ++e)
+    parts.elem_feasible[e] = static_cast<std::uint8_t>(parts.elem_feasible[e] && element_ok[e]);
+  out.basis =
+      std::make_unique<core::CompiledBasis>(core::CompiledBasis::from_parts(std::move(parts)));
+  c.basis = out.basis.get();
+  for (int d = 0; d < host.dim(); ++d)
+    c.parameters.push_back(
+        {host.names()[static_cast<std::size_t>(d)], host.units()[static_cast<std::size_t>(d)],
+         host.lower()[static_cast<std::size_t>(d)], host.upper()[static_cast<std::size_t>(d)]});
+  for (const Field& f : field_source->fields)
+    c.fields.push_back(
+        {f.name, f.location == 0 ? format::FieldLocation::Vertex : format::FieldLocation::Tet,
+         f.components});
+  for (const Region& r : field_source->regions) c.regions.push_back({r.name, r.kind, r.face_tags});
+  c.builder_version = std::to_string(CADINTERP_VERSION_MAJOR) + "." +
+                      std::to_string(CADINTERP_VERSION_MINOR) + "." +
+                      std::to_string(CADINTERP_VERSION_PATCH);
+  c.host = host.name();
+  c.options_json = options_json(opt, mapper.name());
+
+  rep.samples = S;
+  rep.elements = static_cast<int>(leaves.size());
+  rep.budget_exhausted = run.budget_exhausted ? 1 : 0;
+  rep.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return out;
+}
+
+}  // namespace cadinterp::builder

@@ -1,0 +1,75 @@
+// The builder (paper §4.2 over meshes): adaptive sampling of a host's meshes and fields on the
+// K-d tree, each element's canonical mesh at its centre, the neighbourhood samples mapped into
+// its combinatorics (mapping_hook.h), and the asset content for the writer.
+//
+// Refinement test, per element and at its centre and face centres (core/adaptive.h):
+//   error = max( H(P(y), p(y)) / (diag(p(y)) * geometry_tolerance),
+//                max_f |P_f(y) - p_f(y)| / (range(p_f(y)) * field_tolerance) )
+// where P is the interpolant of the element's terms mapped into its canonical mesh, p(y) the
+// host's sample at y, H the symmetric Hausdorff distance between boundary surfaces
+// (surface_distance.h) and p_f(y) a field mapped the same way. An element is split while
+// error > 1, along the direction whose midpoint interpolation error is largest.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "builder/executor.h"
+#include "builder/host_call.h"
+#include "builder/mapping_hook.h"
+#include "cadinterp/cadinterp_builder.h"
+#include "core/basis.h"
+#include "core/compiled_basis.h"
+#include "format/asset_writer.h"
+
+namespace cadinterp::builder {
+
+struct BuildCancelled : std::runtime_error {
+  BuildCancelled() : std::runtime_error("build cancelled") {}
+};
+
+struct BuildOptions {
+  core::Degree degree = core::Degree::Linear;
+  double geometry_tolerance = 1e-3;  ///< relative to the bbox diagonal
+  double field_tolerance = 1e-2;     ///< relative to the field's range in the true sample
+  int max_samples = 256;
+  int max_depth = 8;
+  int threads = 0;         ///< 0: hardware concurrency
+  std::string store_path;  ///< empty: no store
+  double position_max_abs_error = 0.0;
+  /// Called after every delivered sample; returns true to cancel.
+  std::function<bool(const cadinterp_progress&)> progress;
+  const Mapper* mapper = nullptr;  ///< nullptr: IdentityMapper
+  Executor* executor = nullptr;    ///< nullptr: a ThreadPoolExecutor with `threads`
+};
+
+/// A point where the host failed, with its message.
+struct InfeasiblePoint {
+  std::vector<double> x;
+  std::string message;
+};
+
+struct BuildResult {
+  std::unique_ptr<core::CompiledBasis> basis;
+  format::AssetContent content;  ///< content.basis points to *basis
+  std::vector<InfeasiblePoint> infeasible;
+  cadinterp_build_report report{};
+};
+
+/// Runs the build. Throws BuildCancelled, StoreError (sample_store.h), std::invalid_argument
+/// (options), std::runtime_error (no feasible sample at all).
+BuildResult build(const Host& host, const BuildOptions& options);
+
+/// What a sample store's samples are samples of: host name and identity, K, parameter names and
+/// box (a store with another fingerprint is refused).
+std::string store_fingerprint(const Host& host);
+
+/// The options as the JSON text recorded in the asset's provenance (only what determines the
+/// asset: thread count, store path and callbacks are left out, so that the bytes do not depend
+/// on them).
+std::string options_json(const BuildOptions& options, const char* mapper_name);
+
+}  // namespace cadinterp::builder

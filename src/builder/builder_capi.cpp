@@ -1,0 +1,246 @@
+// The builder's C ABI (include/cadinterp/cadinterp_builder.h) over build.h. Every exported body
+// is guarded: no exception crosses the interface, and failures leave outputs untouched.
+#include <cstring>
+#include <filesystem>
+#include <new>
+#include <set>
+#include <string>
+
+#include "builder/build.h"
+#include "builder/host_call.h"
+#include "builder/sample_store.h"
+#include "cadinterp/cadinterp_builder.h"
+#include "format/asset_format.h"
+
+using cadinterp::builder::Sample;
+
+namespace {
+
+thread_local std::string t_create_error;
+
+// Runs `body` (returning cadinterp_status); maps exceptions to statuses and `error` text.
+template <class F>
+cadinterp_status guard(std::string* error, F&& body) {
+  try {
+    return body();
+  } catch (const std::bad_alloc&) {
+    if (error) *error = "out of memory";
+    return CADINTERP_E_OUT_OF_MEMORY;
+  } catch (const cadinterp::builder::BuildCancelled& e) {
+    if (error) *error = e.what();
+    return CADINTERP_E_CANCELLED;
+  } catch (const cadinterp::builder::StoreError& e) {
+    if (error) *error = e.what();
+    return e.kind == cadinterp::builder::StoreError::Kind::Mismatch ? CADINTERP_E_STORE_MISMATCH
+                                                                    : CADINTERP_E_IO;
+  } catch (const cadinterp::format::FormatError& e) {
+    if (error) *error = e.what();
+    return static_cast<cadinterp_status>(static_cast<int>(e.status));
+  } catch (const std::invalid_argument& e) {
+    if (error) *error = e.what();
+    return CADINTERP_E_INVALID_ARGUMENT;
+  } catch (const std::exception& e) {
+    if (error) *error = e.what();
+    return CADINTERP_E_INTERNAL;
+  } catch (...) {
+    if (error) *error = "unknown exception";
+    return CADINTERP_E_INTERNAL;
+  }
+}
+
+constexpr std::size_t kMaxCount = std::size_t(1) << 31;
+
+bool valid_id(const int64_t* id, size_t n) { return id && n >= 1 && n <= 64; }
+
+}  // namespace
+
+struct cadinterp_builder {
+  std::unique_ptr<cadinterp::builder::Host> host;
+  cadinterp::builder::BuildOptions options;
+  cadinterp_progress_fn progress = nullptr;
+  void* progress_user = nullptr;
+  cadinterp_build_report report{};
+  std::string error;
+};
+
+extern "C" {
+
+CADINTERP_API cadinterp_status cadinterp_sample_set_mesh(cadinterp_sample* s, const double* V,
+                                                         size_t nv, const uint32_t* T, size_t nt,
+                                                         const uint32_t* F, const int32_t* tags,
+                                                         size_t nf) {
+  return guard(nullptr, [&] {
+    if (!s || s->mesh_set || (nv && !V) || (nt && !T) || (nf && (!F || !tags)) || nv >= kMaxCount ||
+        nt >= kMaxCount || nf >= kMaxCount)
+      return CADINTERP_E_INVALID_ARGUMENT;
+    Sample& x = s->sample;
+    x.vertices.assign(V, V + 3 * nv);
+    x.tets.assign(T, T + 4 * nt);
+    x.triangles.assign(F, F + 3 * nf);
+    x.triangle_tags.assign(tags, tags + nf);
+    s->mesh_set = true;
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API cadinterp_status cadinterp_sample_add_point(cadinterp_sample* s, const int64_t* id,
+                                                          size_t n, const double* position) {
+  return guard(nullptr, [&] {
+    if (!s || !valid_id(id, n) || !position) return CADINTERP_E_INVALID_ARGUMENT;
+    cadinterp::builder::ControlPoint p;
+    p.id.assign(id, id + n);
+    for (const auto& q : s->sample.points)
+      if (q.id == p.id) return CADINTERP_E_INVALID_ARGUMENT;
+    std::memcpy(p.position, position, sizeof p.position);
+    s->sample.points.push_back(std::move(p));
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API cadinterp_status cadinterp_sample_add_path(cadinterp_sample* s, const int64_t* a,
+                                                         size_t na, const int64_t* b, size_t nb,
+                                                         const double* polyline, size_t np) {
+  return guard(nullptr, [&] {
+    if (!s || !valid_id(a, na) || !valid_id(b, nb) || !polyline || np < 2 || np >= kMaxCount)
+      return CADINTERP_E_INVALID_ARGUMENT;
+    cadinterp::builder::Path p;
+    p.a.assign(a, a + na);
+    p.b.assign(b, b + nb);
+    p.polyline.assign(polyline, polyline + 3 * np);
+    s->sample.paths.push_back(std::move(p));
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API cadinterp_status cadinterp_sample_add_region(cadinterp_sample* s, const char* name,
+                                                           const char* kind, const int32_t* tags,
+                                                           size_t n) {
+  return guard(nullptr, [&] {
+    if (!s || !name || !*name || (n && !tags) || n >= kMaxCount)
+      return CADINTERP_E_INVALID_ARGUMENT;
+    for (const auto& r : s->sample.regions)
+      if (r.name == name) return CADINTERP_E_INVALID_ARGUMENT;
+    s->sample.regions.push_back({name, kind ? kind : "", std::vector<int32_t>(tags, tags + n)});
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* s, const char* name,
+                                                          cadinterp_field_location loc,
+                                                          int components, const double* values,
+                                                          size_t count) {
+  return guard(nullptr, [&] {
+    if (!s || !name || !*name || components < 1 || components > 16 ||
+        (loc != CADINTERP_PER_VERTEX && loc != CADINTERP_PER_TET) || (count && !values) ||
+        count >= kMaxCount)
+      return CADINTERP_E_INVALID_ARGUMENT;
+    for (const auto& f : s->sample.fields)
+      if (f.name == name) return CADINTERP_E_INVALID_ARGUMENT;
+    cadinterp::builder::Field f;
+    f.name = name;
+    f.location = static_cast<std::uint8_t>(loc);
+    f.components = components;
+    f.values.assign(values, values + count * static_cast<std::size_t>(components));
+    s->sample.fields.push_back(std::move(f));
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
+                                                            const char* message) {
+  return guard(nullptr, [&] {
+    if (!s || !message) return CADINTERP_E_INVALID_ARGUMENT;
+    s->sample.message = message;
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
+  if (!o) return;
+  std::memset(o, 0, sizeof *o);
+  o->struct_size = sizeof *o;
+  o->degree = 1;
+  o->geometry_tolerance = 1e-3;
+  o->field_tolerance = 1e-2;
+  o->max_samples = 256;
+  o->max_depth = 8;
+}
+
+CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
+                                                        const cadinterp_build_options* options,
+                                                        cadinterp_builder** out) {
+  return guard(&t_create_error, [&] {
+    if (!out) throw std::invalid_argument("out is NULL");
+    if (!host) throw std::invalid_argument("host is NULL");
+    cadinterp_build_options o;
+    cadinterp_build_options_init(&o);
+    if (options) {
+      // Grow-by-addition: a caller compiled against an older, shorter struct still works.
+      if (options->struct_size < offsetof(cadinterp_build_options, progress_user) + sizeof(void*))
+        throw std::invalid_argument("options: struct_size too small");
+      std::memcpy(&o, options, std::min(options->struct_size, sizeof o));
+    }
+    if (o.degree != 1 && o.degree != 3)
+      throw std::invalid_argument("options: degree must be 1 or 3");
+    auto b = std::make_unique<cadinterp_builder>();
+    b->host = std::make_unique<cadinterp::builder::Host>(*host);
+    auto& bo = b->options;
+    bo.degree = o.degree == 3 ? cadinterp::core::Degree::Cubic : cadinterp::core::Degree::Linear;
+    bo.geometry_tolerance = o.geometry_tolerance;
+    bo.field_tolerance = o.field_tolerance;
+    bo.max_samples = o.max_samples;
+    bo.max_depth = o.max_depth;
+    bo.threads = o.threads;
+    bo.store_path = o.store_path ? o.store_path : "";
+    bo.position_max_abs_error = o.position_max_abs_error;
+    if (!(bo.geometry_tolerance > 0) || !(bo.field_tolerance > 0))
+      throw std::invalid_argument("options: tolerances must be positive");
+    if (bo.max_samples < 2) throw std::invalid_argument("options: max_samples must be >= 2");
+    if (bo.max_depth < 1 || bo.max_depth > 29)
+      throw std::invalid_argument("options: max_depth must be 1..29");
+    if (bo.threads < 0) throw std::invalid_argument("options: threads must be >= 0");
+    b->progress = o.progress;
+    b->progress_user = o.progress_user;
+    if (b->progress) {
+      cadinterp_builder* raw = b.get();
+      bo.progress = [raw](const cadinterp_progress& p) {
+        return raw->progress(raw->progress_user, &p) != 0;
+      };
+    }
+    *out = b.release();
+    t_create_error.clear();
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API const char* cadinterp_builder_open_error(void) { return t_create_error.c_str(); }
+
+CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* b) { delete b; }
+
+CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const char* path) {
+  if (!b) return CADINTERP_E_INVALID_ARGUMENT;
+  return guard(&b->error, [&] {
+    if (!path || !*path) throw std::invalid_argument("output path is NULL or empty");
+    cadinterp::builder::BuildResult r = cadinterp::builder::build(*b->host, b->options);
+    cadinterp::format::WriteOptions w;
+    w.position_max_abs_error = b->options.position_max_abs_error;
+    cadinterp::format::write_asset_file(r.content, w, path);
+    r.report.asset_bytes = std::filesystem::file_size(path);
+    b->report = r.report;
+    b->error.clear();
+    return CADINTERP_OK;
+  });
+}
+
+CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* b,
+                                                        cadinterp_build_report* out) {
+  if (!b || !out) return CADINTERP_E_INVALID_ARGUMENT;
+  *out = b->report;
+  return CADINTERP_OK;
+}
+
+CADINTERP_API const char* cadinterp_builder_error(const cadinterp_builder* b) {
+  return b ? b->error.c_str() : "builder is NULL";
+}
+
+}  // extern "C"

@@ -1,0 +1,507 @@
+// Builder tests: samples, surface distances, the store, and whole builds through the C ABI with
+// a host over the synthetic deformed box (format/synthetic_asset.h), whose true answer is known
+// at every x: accuracy of the opened asset, determinism across thread counts, host failures,
+// cancellation, the mapping hook's refusal of unmapped combinatorics, and kill -9 resumption.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "builder/build.h"
+#include "builder/sample_store.h"
+#include "builder/surface_distance.h"
+#include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_builder.h"
+#include "format/synthetic_asset.h"
+
+namespace {
+
+using namespace cadinterp;
+using builder::Sample;
+
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() /
+          ("cadinterp_builder_test_" + std::to_string(::getpid()) + "_" + name))
+      .string();
+}
+
+std::vector<std::uint8_t> read_bytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(f), {});
+}
+
+// ---- The test host: the synthetic box through the C callbacks -------------------------------
+
+struct BoxHost {
+  format::SyntheticSpec spec;
+  format::BoxMesh box;
+  bool fail_corner = false;      // regenerate fails where x0 > 0.75 and x1 > 0.75
+  bool throw_corner = false;     // ... throws instead
+  bool vary_resolution = false;  // more cells where x0 > 0.5: combinatorics change
+  std::string log_path;          // appends x of every regenerate call (resume test)
+  int sleep_ms = 0;
+  std::atomic<int> calls{0};
+  std::vector<cadinterp_parameter_desc> params;
+  cadinterp_host host{};
+
+  explicit BoxHost(int K) {
+    spec.K = K;
+    spec.cells[0] = 3;
+    spec.cells[1] = 2;
+    spec.cells[2] = 2;
+    box = format::synthetic_box(spec);
+    static const char* names[4] = {"bend", "twist", "taper", "stretch"};
+    for (int d = 0; d < K; ++d) params.push_back({names[d], "1", 0.0, 1.0});
+    host.struct_size = sizeof host;
+    host.name = "test box";
+    host.identity = "box 3x2x2";
+    host.parameter_count = K;
+    host.parameters = params.data();
+    host.user = this;
+    host.regenerate = &regenerate;
+    host.references = &references;
+    host.simulate = &simulate;
+    host.thread_safe = 1;
+  }
+
+  static cadinterp_status regenerate(void* user, const double* x, cadinterp_sample* out) {
+    auto* h = static_cast<BoxHost*>(user);
+    ++h->calls;
+    if (!h->log_path.empty()) {
+      std::FILE* f = std::fopen(h->log_path.c_str(), "a");
+      for (int d = 0; d < h->spec.K; ++d) std::fprintf(f, "%a ", x[d]);
+      std::fprintf(f, "\n");
+      std::fclose(f);
+    }
+    if (h->sleep_ms) std::this_thread::sleep_for(std::chrono::milliseconds(h->sleep_ms));
+    if ((h->fail_corner || h->throw_corner) && x[0] > 0.75 && x[1] > 0.75) {
+      if (h->throw_corner) throw std::runtime_error("fillet too large");
+      cadinterp_sample_set_message(out, "fillet too large");
+      return CADINTERP_E_INFEASIBLE;
+    }
+    format::SyntheticSpec spec = h->spec;
+    format::BoxMesh local;
+    const format::BoxMesh* box = &h->box;
+    if (h->vary_resolution && x[0] > 0.5) {
+      spec.cells[0] = 4;
+      local = format::synthetic_box(spec);
+      box = &local;
+    }
+    std::vector<float> pos, fld;
+    format::synthetic_host(spec, *box, x, pos, fld);
+    const std::vector<double> V(pos.begin(), pos.end());
+    return cadinterp_sample_set_mesh(out, V.data(), box->vertex_count, box->tets.data(),
+                                     box->tets.size() / 4, box->triangles.data(), box->tags.data(),
+                                     box->tags.size());
+  }
+  static cadinterp_status references(void*, const double*, cadinterp_sample* out) {
+    const int32_t fixed[1] = {0}, load[1] = {1};
+    cadinterp_sample_add_region(out, "clamp", "fixed", fixed, 1);
+    cadinterp_sample_add_region(out, "tip", "force", load, 1);
+    return CADINTERP_OK;
+  }
+  static cadinterp_status simulate(void* user, const double* x, const cadinterp_host_mesh* m,
+                                   cadinterp_sample* out) {
+    auto* h = static_cast<BoxHost*>(user);
+    format::SyntheticSpec spec = h->spec;
+    format::BoxMesh local;
+    const format::BoxMesh* box = &h->box;
+    if (h->vary_resolution && x[0] > 0.5) {
+      spec.cells[0] = 4;
+      local = format::synthetic_box(spec);
+      box = &local;
+    }
+    std::vector<float> pos, fld;
+    format::synthetic_host(spec, *box, x, pos, fld);
+    const std::vector<double> temp(fld.begin(), fld.begin() + static_cast<long>(m->vertex_count));
+    const std::vector<double> stress(fld.begin() + static_cast<long>(m->vertex_count), fld.end());
+    cadinterp_status s = cadinterp_sample_add_field(out, "temperature", CADINTERP_PER_VERTEX, 1,
+                                                    temp.data(), temp.size());
+    if (s != CADINTERP_OK) return s;
+    return cadinterp_sample_add_field(out, "stress", CADINTERP_PER_TET, 1, stress.data(),
+                                      stress.size());
+  }
+
+  // The true mesh at x, through the same callbacks the builder calls.
+  Sample truth(const double* x) const { return builder::Host(host).evaluate(x); }
+};
+
+struct Built {
+  cadinterp_status status = CADINTERP_E_INTERNAL;
+  cadinterp_build_report report{};
+  std::string error;
+};
+
+Built build(BoxHost& h, cadinterp_build_options o, const std::string& path) {
+  cadinterp_builder* b = nullptr;
+  Built r;
+  r.status = cadinterp_builder_create(&h.host, &o, &b);
+  if (r.status != CADINTERP_OK) {
+    r.error = cadinterp_builder_open_error();
+    return r;
+  }
+  r.status = cadinterp_builder_run(b, path.c_str());
+  r.error = cadinterp_builder_error(b);
+  cadinterp_builder_report(b, &r.report);
+  cadinterp_builder_destroy(b);
+  return r;
+}
+
+cadinterp_build_options small_options() {
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.geometry_tolerance = 2e-3;
+  o.field_tolerance = 2e-2;
+  o.max_samples = 120;
+  o.max_depth = 6;
+  o.threads = 2;
+  return o;
+}
+
+// ---- Unit pieces ----------------------------------------------------------------------------
+
+TEST(Sample, SerializesLosslesslyAndValidates) {
+  BoxHost h(2);
+  const double x[2] = {0.3, 0.7};
+  Sample s = h.truth(x);
+  ASSERT_TRUE(s.feasible) << s.message;
+  const auto bytes = builder::serialize(s);
+  const Sample t = builder::deserialize(bytes.data(), bytes.size());
+  EXPECT_EQ(builder::serialize(t), bytes);
+  EXPECT_EQ(t.vertices, s.vertices);
+  EXPECT_EQ(t.fields.size(), 2u);
+  for (std::size_t n = 0; n < bytes.size(); n += 7)
+    EXPECT_THROW(builder::deserialize(bytes.data(), n), std::runtime_error) << n;
+
+  EXPECT_EQ(builder::validate(s), "");
+  Sample bad = s;
+  std::swap(bad.tets[0], bad.tets[1]);  // odd permutation: inverted
+  EXPECT_NE(builder::validate(bad).find("inverted"), std::string::npos);
+  bad = s;
+  bad.vertices[5] = std::nan("");
+  EXPECT_NE(builder::validate(bad).find("non-finite"), std::string::npos);
+  bad = s;
+  bad.triangles[2] = static_cast<std::uint32_t>(s.vertex_count());
+  EXPECT_NE(builder::validate(bad).find("out of range"), std::string::npos);
+  bad = s;
+  bad.fields[1].values.pop_back();
+  EXPECT_NE(builder::validate(bad).find("stress"), std::string::npos);
+}
+
+TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
+  // Two unit squares 0.25 apart: Hausdorff 0.25.
+  const std::vector<double> A = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+  std::vector<double> B = A;
+  for (std::size_t i = 2; i < B.size(); i += 3) B[i] = 0.25;
+  const std::vector<std::uint32_t> F = {0, 1, 2, 0, 2, 3};
+  EXPECT_NEAR(builder::symmetric_hausdorff(A, F, B, F), 0.25, 1e-15);
+
+  // A box surface against random points: the grid query equals the brute force over all
+  // triangles, inside, outside and far away.
+  BoxHost h(2);
+  const double x[2] = {0.5, 0.5};
+  const Sample s = h.truth(x);
+  const builder::SurfaceIndex index(s.vertices, s.triangles);
+  const builder::SurfaceIndex one_by_one(s.vertices, {});
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  for (int i = 0; i < 300; ++i) {
+    const double p[3] = {u(rng), u(rng), u(rng) * (i % 3 == 0 ? 10 : 1)};
+    double brute = std::numeric_limits<double>::infinity();
+    for (std::size_t t = 0; t < s.triangle_count(); ++t) {
+      const std::vector<std::uint32_t> f(s.triangles.begin() + static_cast<long>(3 * t),
+                                         s.triangles.begin() + static_cast<long>(3 * t + 3));
+      brute = std::min(brute, builder::SurfaceIndex(s.vertices, f).distance(p));
+    }
+    EXPECT_NEAR(index.distance(p), brute, 1e-12 * (1 + brute)) << i;
+  }
+  EXPECT_TRUE(std::isinf(one_by_one.distance(x)));
+}
+
+TEST(SampleStore, KeepsSamplesAndRefusesAnotherModel) {
+  const std::string path = temp_path("store.sqlite");
+  std::filesystem::remove(path);
+  BoxHost h(2);
+  const std::vector<double> x = {0.25, 0.5};
+  const Sample s = h.truth(x.data());
+  {
+    builder::SampleStore store(path, "model A");
+    Sample got;
+    EXPECT_FALSE(store.get(x, got));
+    store.put(x, s);
+    Sample failed;
+    failed.message = "no";
+    store.put({0.5, 0.5}, failed);
+  }
+  builder::SampleStore store(path, "model A");
+  Sample got;
+  ASSERT_TRUE(store.get(x, got));
+  EXPECT_EQ(builder::serialize(got), builder::serialize(s));
+  ASSERT_TRUE(store.get({0.5, 0.5}, got));
+  EXPECT_FALSE(got.feasible);
+  EXPECT_EQ(got.message, "no");
+  EXPECT_EQ(store.size(), 2);
+  EXPECT_FALSE(store.get({0.25, std::nextafter(0.5, 1.0)}, got));  // bit-exact keys
+  try {
+    builder::SampleStore other(path, "model B");
+    ADD_FAILURE() << "a store of another model was accepted";
+  } catch (const builder::StoreError& e) {
+    EXPECT_EQ(e.kind, builder::StoreError::Kind::Mismatch);
+  }
+  std::filesystem::remove(path);
+}
+
+// ---- Whole builds ---------------------------------------------------------------------------
+
+// Boundary-surface error of the opened asset against the host at random points (a small
+// Table 2): max and 99th percentile relative to the bbox diagonal, and the field error.
+TEST(Build, AssetMatchesTheHostAtRandomPoints) {
+  BoxHost h(3);
+  const std::string path = temp_path("accuracy.cadi");
+  const Built r = build(h, small_options(), path);
+  ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
+  EXPECT_GT(r.report.elements, 8);
+  EXPECT_EQ(r.report.infeasible_elements, 0);
+
+  cadinterp_asset* a = nullptr;
+  ASSERT_EQ(cadinterp_open(path.c_str(), &a), CADINTERP_OK) << cadinterp_open_error();
+  cadinterp_workspace* ws = nullptr;
+  ASSERT_EQ(cadinterp_workspace_create(a, &ws), CADINTERP_OK);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<double> geo, fld;
+  const int fields[2] = {0, 1};
+  for (int i = 0; i < 100; ++i) {
+    const double x[3] = {u(rng), u(rng), u(rng)};
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(ws, x, fields, 2, &m), CADINTERP_OK) << cadinterp_workspace_error(ws);
+    const Sample t = h.truth(x);
+    const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
+    const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
+    geo.push_back(builder::symmetric_hausdorff(V, F, t.vertices, t.triangles) / t.bbox_diagonal());
+    // Same combinatorics here, so fields compare value by value.
+    double e = 0, range = 0;
+    for (std::size_t k = 0; k < m.vertex_count; ++k) {
+      e = std::max(e, std::abs(m.fields[0][k] - t.fields[0].values[k]));
+      range = std::max(range, std::abs(t.fields[0].values[k]));
+    }
+    fld.push_back(e / range);
+  }
+  std::sort(geo.begin(), geo.end());
+  std::sort(fld.begin(), fld.end());
+  std::printf(
+      "[ figures ] box K=3: %d samples, %d elements; geometry max %.2e p99 %.2e; "
+      "temperature max %.2e (targets 2e-3, 2e-2)\n",
+      r.report.samples, r.report.elements, geo.back(), geo[98], fld.back());
+  // The targets hold at the centres and face centres the builder tests; between them the
+  // interpolant may exceed them by a small factor.
+  EXPECT_LT(geo.back(), 4 * 2e-3);
+  EXPECT_LT(fld.back(), 4 * 2e-2);
+  cadinterp_workspace_destroy(ws);
+  cadinterp_close(a);
+  std::filesystem::remove(path);
+}
+
+TEST(Build, IsDeterministicAcrossThreadCounts) {
+  BoxHost h(2);
+  std::vector<std::vector<std::uint8_t>> assets;
+  for (int threads : {1, 2, 5}) {
+    cadinterp_build_options o = small_options();
+    o.threads = threads;
+    const std::string path = temp_path("threads" + std::to_string(threads) + ".cadi");
+    const Built r = build(h, o, path);
+    ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
+    assets.push_back(read_bytes(path));
+    std::filesystem::remove(path);
+  }
+  EXPECT_EQ(assets[0], assets[1]);
+  EXPECT_EQ(assets[0], assets[2]);
+}
+
+TEST(Build, HostFailuresBecomeInfeasibleRegions) {
+  for (bool throws : {false, true}) {
+    BoxHost h(2);
+    h.fail_corner = !throws;
+    h.throw_corner = throws;
+    const std::string path = temp_path("fail.cadi");
+    const Built r = build(h, small_options(), path);
+    ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
+    EXPECT_GT(r.report.infeasible_points, 0);
+    EXPECT_GT(r.report.infeasible_elements, 0);
+    cadinterp_asset* a = nullptr;
+    ASSERT_EQ(cadinterp_open(path.c_str(), &a), CADINTERP_OK);
+    cadinterp_workspace* ws = nullptr;
+    ASSERT_EQ(cadinterp_workspace_create(a, &ws), CADINTERP_OK);
+    cadinterp_mesh m;
+    const double bad[2] = {0.95, 0.95}, good[2] = {0.2, 0.3};
+    EXPECT_EQ(cadinterp_eval(ws, bad, nullptr, 0, &m), CADINTERP_E_INFEASIBLE);
+    EXPECT_EQ(cadinterp_eval(ws, good, nullptr, 0, &m), CADINTERP_OK);
+    cadinterp_workspace_destroy(ws);
+    cadinterp_close(a);
+    std::filesystem::remove(path);
+  }
+}
+
+TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
+  BoxHost h(2);
+  h.vary_resolution = true;
+  const std::string path = temp_path("vary.cadi");
+  const Built r = build(h, small_options(), path);
+  ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
+  // Elements whose samples straddle x0 = 0.5 cannot be mapped by the identity hook.
+  EXPECT_GT(r.report.infeasible_elements, 0);
+  EXPECT_LT(r.report.infeasible_elements, r.report.elements);
+  std::filesystem::remove(path);
+}
+
+TEST(Build, RejectsBadArgumentsWithNamedErrors) {
+  BoxHost h(2);
+  cadinterp_builder* b = nullptr;
+  cadinterp_build_options o = small_options();
+  o.degree = 2;
+  EXPECT_EQ(cadinterp_builder_create(&h.host, &o, &b), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(cadinterp_builder_open_error()).find("degree"), std::string::npos);
+  EXPECT_EQ(b, nullptr);
+  cadinterp_host bad = h.host;
+  bad.regenerate = nullptr;
+  EXPECT_EQ(cadinterp_builder_create(&bad, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
+  std::vector<cadinterp_parameter_desc> p = h.params;
+  p[1].upper = p[1].lower;
+  bad = h.host;
+  bad.parameters = p.data();
+  EXPECT_EQ(cadinterp_builder_create(&bad, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(cadinterp_builder_open_error()).find("twist"), std::string::npos);
+  ASSERT_EQ(cadinterp_builder_create(&h.host, nullptr, &b), CADINTERP_OK);
+  EXPECT_EQ(cadinterp_builder_run(b, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_builder_run(b, "/nonexistent-dir/x.cadi"), CADINTERP_E_IO)
+      << cadinterp_builder_error(b);
+  cadinterp_builder_destroy(b);
+  cadinterp_builder_destroy(nullptr);
+}
+
+TEST(Build, ProgressCanCancelAndTheStoreKeepsTheWork) {
+  BoxHost h(2);
+  const std::string store = temp_path("cancel.sqlite"), path = temp_path("cancel.cadi");
+  std::filesystem::remove(store);
+  cadinterp_build_options o = small_options();
+  o.store_path = store.c_str();
+  int seen = 0;
+  o.progress_user = &seen;
+  o.progress = [](void* user, const cadinterp_progress* p) {
+    ++*static_cast<int*>(user);
+    return p->samples_done >= 12 ? 1 : 0;
+  };
+  Built r = build(h, o, path);
+  EXPECT_EQ(r.status, CADINTERP_E_CANCELLED) << r.error;
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_GT(seen, 0);
+  const int first = h.calls.load();
+  EXPECT_GE(first, 12);
+
+  o.progress = nullptr;
+  r = build(h, o, path);
+  ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
+  EXPECT_EQ(r.report.store_hits, first);  // nothing finished is evaluated again
+  EXPECT_EQ(h.calls.load(), first + r.report.host_evaluations);
+
+  // The same store for another parameter box is refused by name.
+  BoxHost other(2);
+  other.params[0].upper = 2.0;
+  r = build(other, o, path);
+  EXPECT_EQ(r.status, CADINTERP_E_STORE_MISMATCH) << r.error;
+  std::filesystem::remove(store);
+  std::filesystem::remove(path);
+}
+
+std::set<std::string> logged_points(const std::string& log, std::size_t from_line,
+                                    std::vector<std::string>* lines_out) {
+  std::ifstream f(log);
+  std::string line;
+  std::set<std::string> out;
+  for (std::size_t n = 0; std::getline(f, line); ++n) {
+    if (n < from_line) continue;
+    out.insert(line);
+    if (lines_out) lines_out->push_back(line);
+  }
+  return out;
+}
+
+std::string key_text(const std::vector<double>& x) {
+  std::string s;
+  char buf[40];
+  for (double v : x) {
+    std::snprintf(buf, sizeof buf, "%a ", v);
+    s += buf;
+  }
+  return s;
+}
+
+// kill -9 at random moments, resume, repeat: the final asset equals an uninterrupted build's byte
+// for byte, and no point that was in the store when a run started is evaluated by that run.
+TEST(Build, ResumesAfterKillWithoutRepeatingFinishedSamples) {
+  const std::string ref_path = temp_path("ref.cadi"), path = temp_path("resumed.cadi");
+  const std::string store = temp_path("resume.sqlite"), log = temp_path("resume.log");
+  for (const auto& p : {ref_path, path, store, log}) std::filesystem::remove(p);
+  cadinterp_build_options o = small_options();
+  {
+    BoxHost h(2);
+    ASSERT_EQ(build(h, o, ref_path).status, CADINTERP_OK);
+  }
+  o.store_path = store.c_str();
+  std::mt19937 rng(5);
+  int kills = 0, repeated = 0, runs = 0;
+  std::size_t log_lines = 0;
+  for (bool finished = false; !finished && runs < 40; ++runs) {
+    std::set<std::string> before;
+    if (std::filesystem::exists(store)) {
+      BoxHost h(2);
+      builder::SampleStore s(store, builder::store_fingerprint(builder::Host(h.host)));
+      for (const auto& k : s.keys()) before.insert(key_text(k));
+    }
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      BoxHost h(2);
+      h.log_path = log;
+      h.sleep_ms = 4;
+      _exit(build(h, o, path).status == CADINTERP_OK ? 0 : 3);
+    }
+    const bool kill_it = kills < 6;
+    if (kill_it) {
+      std::this_thread::sleep_for(
+          std::chrono::milliseconds(std::uniform_int_distribution<int>(30, 200)(rng)));
+      ::kill(pid, SIGKILL);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    if (WIFSIGNALED(status)) {
+      ++kills;
+    } else {
+      ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+      finished = true;
+    }
+    std::vector<std::string> calls;
+    logged_points(log, log_lines, &calls);
+    log_lines += calls.size();
+    for (const auto& c : calls) repeated += before.count(c) ? 1 : 0;
+  }
+  std::printf("[ figures ] resume: %d kills, %d runs, %zu host calls in all, %d repeated\n", kills,
+              runs, log_lines, repeated);
+  EXPECT_GE(kills, 3);
+  EXPECT_EQ(repeated, 0);
+  EXPECT_EQ(read_bytes(path), read_bytes(ref_path));
+  for (const auto& p : {ref_path, path, store, log}) std::filesystem::remove(p);
+}
+
+}  // namespace

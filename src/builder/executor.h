@@ -1,0 +1,44 @@
+// Where host evaluations run. The sampler hands an executor one refinement wave of parameter
+// points and receives one Sample per point; it never sees threads, processes or ranks. So a
+// thread pool (here) and a distributed executor (MPI ranks each holding a host, shipping
+// serialize()d samples back) are interchangeable without touching the sampler.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "builder/host_call.h"
+#include "builder/sample.h"
+
+namespace cadinterp::builder {
+
+class Executor {
+ public:
+  virtual ~Executor() = default;
+  /// Evaluates every point (K doubles each). Calls done(i, sample) exactly once per point that
+  /// was evaluated, on the calling thread, in completion order; between deliveries it calls
+  /// cancelled(), and once that returns true no new point is started. Returns false when
+  /// cancelled before every point was delivered.
+  virtual bool run(const std::vector<std::vector<double>>& points,
+                   const std::function<void(std::size_t, Sample&&)>& done,
+                   const std::function<bool()>& cancelled) = 0;
+  /// Evaluations that may run at once.
+  virtual int concurrency() const = 0;
+};
+
+/// Runs the host on `threads` threads (a host that is not thread-safe is still called one at a
+/// time, by Host::evaluate).
+class ThreadPoolExecutor final : public Executor {
+ public:
+  ThreadPoolExecutor(const Host& host, int threads);
+  bool run(const std::vector<std::vector<double>>& points,
+           const std::function<void(std::size_t, Sample&&)>& done,
+           const std::function<bool()>& cancelled) override;
+  int concurrency() const override { return threads_; }
+
+ private:
+  const Host& host_;
+  int threads_;
+};
+
+}  // namespace cadinterp::builder

@@ -1,0 +1,105 @@
+#include "builder/host_call.h"
+
+#include <chrono>
+#include <cmath>
+#include <new>
+#include <stdexcept>
+
+#include "core/grid.h"
+#include "format/asset_format.h"
+
+namespace cadinterp::builder {
+
+Host::Host(const cadinterp_host& h) {
+  if (h.struct_size < sizeof(cadinterp_host))
+    throw std::invalid_argument("host: struct_size is smaller than sizeof(cadinterp_host)");
+  if (!h.regenerate) throw std::invalid_argument("host: regenerate callback is NULL");
+  if (h.parameter_count < 1 || h.parameter_count > core::kMaxDim)
+    throw std::invalid_argument("host: parameter_count must be 1.." +
+                                std::to_string(core::kMaxDim));
+  if (!h.parameters) throw std::invalid_argument("host: parameters is NULL");
+  name_ = h.name ? h.name : "";
+  identity_ = h.identity ? h.identity : "";
+  if (name_.empty()) throw std::invalid_argument("host: name is empty");
+  for (int i = 0; i < h.parameter_count; ++i) {
+    const cadinterp_parameter_desc& p = h.parameters[i];
+    if (!p.name || !*p.name)
+      throw std::invalid_argument("host: parameter " + std::to_string(i) + " has no name");
+    if (!(std::isfinite(p.lower) && std::isfinite(p.upper) && p.lower < p.upper))
+      throw std::invalid_argument(std::string("host: parameter '") + p.name +
+                                  "' needs finite lower < upper");
+    names_.emplace_back(p.name);
+    units_.emplace_back(p.unit ? p.unit : "");
+    lower_.push_back(p.lower);
+    upper_.push_back(p.upper);
+  }
+  host_ = h;
+  host_.name = name_.c_str();
+  host_.identity = identity_.c_str();
+  host_.parameters = nullptr;  // the copies above are the ones used
+}
+
+namespace {
+
+// Calls one callback; a status, a C++ exception or a missing result becomes a message.
+template <class F>
+std::string guarded(const char* what, cadinterp_sample& out, F&& call) {
+  cadinterp_status st = CADINTERP_E_INTERNAL;
+  try {
+    st = call();
+  } catch (const std::bad_alloc&) {
+    return std::string(what) + " ran out of memory";
+  } catch (const std::exception& e) {
+    return std::string(what) + " threw: " + e.what();
+  } catch (...) {
+    return std::string(what) + " threw an unknown exception";
+  }
+  if (st == CADINTERP_OK) return "";
+  std::string m = std::string(what) + " failed (status " + std::to_string(static_cast<int>(st));
+  if (st > CADINTERP_OK && st <= CADINTERP_E_INTERNAL)
+    m += std::string(", ") + format::status_name(static_cast<format::Status>(st));
+  m += ")";
+  if (!out.sample.message.empty()) m += ": " + out.sample.message;
+  return m;
+}
+
+}  // namespace
+
+Sample Host::evaluate(const double* x) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::unique_lock<std::mutex> lock(serial_, std::defer_lock);
+  if (!thread_safe()) lock.lock();
+  cadinterp_sample out;
+  std::string err =
+      guarded("regenerate", out, [&] { return host_.regenerate(host_.user, x, &out); });
+  if (err.empty() && !out.mesh_set) err = "regenerate returned OK without setting a mesh";
+  if (err.empty()) {
+    const std::string v = validate(out.sample);
+    if (!v.empty()) err = "regenerate: " + v;
+  }
+  if (err.empty() && host_.references)
+    err = guarded("references", out, [&] { return host_.references(host_.user, x, &out); });
+  if (err.empty() && host_.simulate) {
+    const Sample& s = out.sample;
+    cadinterp_host_mesh m{s.vertex_count(),      s.vertices.data(),  s.tet_count(),
+                          s.tets.data(),         s.triangle_count(), s.triangles.data(),
+                          s.triangle_tags.data()};
+    err = guarded("simulate", out, [&] { return host_.simulate(host_.user, x, &m, &out); });
+  }
+  if (err.empty()) {
+    const std::string v = validate(out.sample);
+    if (!v.empty()) err = "host output: " + v;
+  }
+  Sample s = std::move(out.sample);
+  if (!err.empty()) {
+    s = Sample{};
+    s.message = err;
+  } else {
+    s.feasible = true;
+    s.message.clear();
+  }
+  s.host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+}  // namespace cadinterp::builder

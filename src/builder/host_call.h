@@ -1,0 +1,49 @@
+// The host of a build: a validated, owning copy of the caller's cadinterp_host, and the one
+// place where its callbacks are called (guarded: statuses, C++ exceptions and invalid meshes all
+// become an infeasible Sample with a message; the build goes on).
+#pragma once
+
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "builder/sample.h"
+#include "cadinterp/cadinterp_builder.h"
+
+/// The builder-owned object host callbacks write into (cadinterp_builder.h).
+struct cadinterp_sample {
+  cadinterp::builder::Sample sample;
+  bool mesh_set = false;
+};
+
+namespace cadinterp::builder {
+
+class Host {
+ public:
+  /// Copies `h`; throws std::invalid_argument naming the first inconsistency.
+  explicit Host(const cadinterp_host& h);
+  Host(const Host&) = delete;
+  Host& operator=(const Host&) = delete;
+
+  int dim() const { return static_cast<int>(lower_.size()); }
+  const std::vector<double>& lower() const { return lower_; }
+  const std::vector<double>& upper() const { return upper_; }
+  const std::vector<std::string>& names() const { return names_; }
+  const std::vector<std::string>& units() const { return units_; }
+  const std::string& name() const { return name_; }
+  const std::string& identity() const { return identity_; }
+  bool thread_safe() const { return host_.thread_safe != 0; }
+
+  /// regenerate, references, simulate at x (K values), then validate(). Never throws but for
+  /// std::bad_alloc. Thread-safety: concurrent calls when thread_safe(), else serialized here.
+  Sample evaluate(const double* x) const;
+
+ private:
+  cadinterp_host host_{};
+  std::string name_, identity_;
+  std::vector<std::string> names_, units_;
+  std::vector<double> lower_, upper_;
+  mutable std::mutex serial_;  // held around the callbacks of a host that is not thread-safe
+};
+
+}  // namespace cadinterp::builder

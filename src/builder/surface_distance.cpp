@@ -1,0 +1,177 @@
+#include "builder/surface_distance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace cadinterp::builder {
+
+namespace {
+
+// Squared distance from p to triangle abc: the closest point lies in one of the seven Voronoi
+// regions of the triangle (3 vertices, 3 edges, the face), told apart by barycentric signs.
+double point_triangle_sq(const double* p, const double* a, const double* b, const double* c) {
+  double ab[3], ac[3], ap[3];
+  for (int i = 0; i < 3; ++i) {
+    ab[i] = b[i] - a[i];
+    ac[i] = c[i] - a[i];
+    ap[i] = p[i] - a[i];
+  }
+  auto dot = [](const double* u, const double* v) {
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+  };
+  auto sq_to = [&](double s, double t) {  // |a + s ab + t ac - p|^2
+    double d = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double q = a[i] + s * ab[i] + t * ac[i] - p[i];
+      d += q * q;
+    }
+    return d;
+  };
+  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return sq_to(0, 0);
+  double bp[3], cp[3];
+  for (int i = 0; i < 3; ++i) {
+    bp[i] = p[i] - b[i];
+    cp[i] = p[i] - c[i];
+  }
+  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return sq_to(1, 0);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return sq_to(d1 / (d1 - d3), 0);
+  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return sq_to(0, 1);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return sq_to(0, d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return sq_to(1 - w, w);
+  }
+  const double denom = va + vb + vc;
+  if (!(denom > 0)) {  // degenerate triangle: its edges
+    return std::min({sq_to(0, 0), sq_to(1, 0), sq_to(0, 1)});
+  }
+  return sq_to(vb / denom, vc / denom);
+}
+
+}  // namespace
+
+SurfaceIndex::SurfaceIndex(const std::vector<double>& V, const std::vector<std::uint32_t>& F)
+    : V_(V), F_(F) {
+  const std::size_t nf = F_.size() / 3;
+  if (nf == 0) return;
+  double hi[3];
+  for (int c = 0; c < 3; ++c) lo_[c] = hi[c] = V_[3 * F_[0] + static_cast<std::size_t>(c)];
+  double edge_sum = 0;
+  for (std::size_t t = 0; t < nf; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const double* p = &V_[3 * F_[3 * t + static_cast<std::size_t>(k)]];
+      const double* q = &V_[3 * F_[3 * t + static_cast<std::size_t>((k + 1) % 3)]];
+      for (int c = 0; c < 3; ++c) {
+        lo_[c] = std::min(lo_[c], p[c]);
+        hi[c] = std::max(hi[c], p[c]);
+      }
+      edge_sum += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                            (p[2] - q[2]) * (p[2] - q[2]));
+    }
+  // Cells about twice the mean edge: a few triangles per cell, and capped at 2^21 cells.
+  const double extent = std::max({hi[0] - lo_[0], hi[1] - lo_[1], hi[2] - lo_[2], 1e-300});
+  cell_ = std::max(2.0 * edge_sum / static_cast<double>(3 * nf), extent / 128.0);
+  for (int c = 0; c < 3; ++c)
+    n_[c] = std::max(1, static_cast<int>(std::ceil((hi[c] - lo_[c]) / cell_)) + 1);
+  const std::size_t cells = static_cast<std::size_t>(n_[0]) * n_[1] * n_[2];
+  std::vector<std::uint32_t> count(cells + 1, 0);
+  auto for_cells = [&](std::size_t t, auto&& f) {
+    int a[3], b[3];
+    for (int c = 0; c < 3; ++c) {
+      double mn = std::numeric_limits<double>::infinity(), mx = -mn;
+      for (int k = 0; k < 3; ++k) {
+        const double v =
+            V_[3 * F_[3 * t + static_cast<std::size_t>(k)] + static_cast<std::size_t>(c)];
+        mn = std::min(mn, v);
+        mx = std::max(mx, v);
+      }
+      a[c] = cell_of(mn, c);
+      b[c] = cell_of(mx, c);
+    }
+    for (int i = a[0]; i <= b[0]; ++i)
+      for (int j = a[1]; j <= b[1]; ++j)
+        for (int k = a[2]; k <= b[2]; ++k)
+          f((static_cast<std::size_t>(i) * n_[1] + static_cast<std::size_t>(j)) * n_[2] +
+            static_cast<std::size_t>(k));
+  };
+  for (std::size_t t = 0; t < nf; ++t) for_cells(t, [&](std::size_t cell) { ++count[cell + 1]; });
+  for (std::size_t i = 0; i < cells; ++i) count[i + 1] += count[i];
+  start_ = count;
+  items_.resize(count[cells]);
+  for (std::size_t t = 0; t < nf; ++t)
+    for_cells(t, [&](std::size_t cell) { items_[count[cell]++] = static_cast<std::uint32_t>(t); });
+}
+
+int SurfaceIndex::cell_of(double v, int axis) const {
+  const double c = std::floor((v - lo_[axis]) / cell_);
+  return static_cast<int>(std::min(std::max(c, 0.0), static_cast<double>(n_[axis] - 1)));
+}
+
+double SurfaceIndex::distance(const double* p) const {
+  if (F_.empty()) return std::numeric_limits<double>::infinity();
+  int home[3];
+  for (int c = 0; c < 3; ++c) home[c] = cell_of(p[c], c);
+  // Distance from p to the grid's box, so that shells are counted from where p enters it.
+  double outside = 0;
+  for (int c = 0; c < 3; ++c) {
+    const double top = lo_[c] + cell_ * n_[c];
+    const double d = std::max({lo_[c] - p[c], p[c] - top, 0.0});
+    outside += d * d;
+  }
+  outside = std::sqrt(outside);
+  double best = std::numeric_limits<double>::infinity();
+  const int max_ring = std::max({n_[0], n_[1], n_[2]});
+  for (int r = 0; r <= max_ring; ++r) {
+    // A triangle not yet seen lies only in cells of ring >= r, so it is at least (r - 1) cells
+    // away, and never closer than the grid's box.
+    if (best <= std::max(outside, (r - 1) * cell_)) break;
+    for (int i = home[0] - r; i <= home[0] + r; ++i) {
+      if (i < 0 || i >= n_[0]) continue;
+      for (int j = home[1] - r; j <= home[1] + r; ++j) {
+        if (j < 0 || j >= n_[1]) continue;
+        for (int k = home[2] - r; k <= home[2] + r; ++k) {
+          if (k < 0 || k >= n_[2]) continue;
+          if (std::max({std::abs(i - home[0]), std::abs(j - home[1]), std::abs(k - home[2])}) != r)
+            continue;  // the shell only
+          const std::size_t cell =
+              (static_cast<std::size_t>(i) * n_[1] + static_cast<std::size_t>(j)) * n_[2] +
+              static_cast<std::size_t>(k);
+          for (std::uint32_t q = start_[cell]; q < start_[cell + 1]; ++q) {
+            const std::size_t t = items_[q];
+            const double d = point_triangle_sq(p, &V_[3 * F_[3 * t]], &V_[3 * F_[3 * t + 1]],
+                                               &V_[3 * F_[3 * t + 2]]);
+            best = std::min(best, std::sqrt(d));
+          }
+        }
+      }
+    }
+  }
+  return best;
+}
+
+std::vector<double> vertex_distances(const std::vector<double>& VA,
+                                     const std::vector<std::uint32_t>& FA, const SurfaceIndex& B) {
+  std::vector<char> used(VA.size() / 3, 0);
+  for (std::uint32_t i : FA) used[i] = 1;
+  std::vector<double> d;
+  for (std::size_t v = 0; v < used.size(); ++v)
+    if (used[v]) d.push_back(B.distance(&VA[3 * v]));
+  return d;
+}
+
+double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std::uint32_t>& FA,
+                           const std::vector<double>& VB, const std::vector<std::uint32_t>& FB) {
+  double h = 0;
+  for (double d : vertex_distances(VA, FA, SurfaceIndex(VB, FB))) h = std::max(h, d);
+  for (double d : vertex_distances(VB, FB, SurfaceIndex(VA, FA))) h = std::max(h, d);
+  return h;
+}
+
+}  // namespace cadinterp::builder

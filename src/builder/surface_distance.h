@@ -1,0 +1,41 @@
+// Distances between triangulated surfaces: the geometric error of the builder's refinement test
+// (symmetric Hausdorff distance between the interpolated and the true boundary, §4.2) and of the
+// end-to-end measurements.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace cadinterp::builder {
+
+/// A triangle soup with a uniform grid over its triangles for closest-point queries.
+class SurfaceIndex {
+ public:
+  /// V #V by 3, F #F by 3 (indices into V). Keeps copies.
+  SurfaceIndex(const std::vector<double>& V, const std::vector<std::uint32_t>& F);
+  /// Distance from p (3 values) to the closest point of the surface (infinity if it has no
+  /// triangles).
+  double distance(const double* p) const;
+
+ private:
+  std::vector<double> V_;
+  std::vector<std::uint32_t> F_;
+  double lo_[3] = {0, 0, 0}, cell_ = 1.0;
+  int n_[3] = {1, 1, 1};
+  std::vector<std::uint32_t> start_, items_;  // CSR: triangles per cell
+  int cell_of(double v, int axis) const;
+};
+
+/// Vertex-sampled symmetric Hausdorff distance between surfaces A and B: the larger of the
+/// largest distance from a vertex of A to B and from a vertex of B to A. It bounds the true
+/// distance from below and approaches it as the triangles shrink; with both surfaces meshed at
+/// the resolution of the model (the builder's case) the two differ by far less than the errors
+/// being measured.
+double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std::uint32_t>& FA,
+                           const std::vector<double>& VB, const std::vector<std::uint32_t>& FB);
+
+/// Distances from every vertex of A (those referenced by FA) to B: for percentiles.
+std::vector<double> vertex_distances(const std::vector<double>& VA,
+                                     const std::vector<std::uint32_t>& FA, const SurfaceIndex& B);
+
+}  // namespace cadinterp::builder
