@@ -27,11 +27,13 @@
  * feature history, never from enumeration order):
  *   - a B-rep vertex:  { 0, vertex id, sorted ids of its adjacent edges... }
  *   - a B-rep edge:    { 1, edge id, sorted ids of its two end vertices... }, identifying the
- *                      edge itself; its interior samples extend it by hierarchical subdivision:
- *                      { 1, edge id, end ids..., -1, i_1, i_2, ... } where i_1 in {0,1} picks
- *                      the half of the edge's parameter range, i_2 the half of that half, and so
- *                      on; the point is the midpoint of the range picked, so a sample's ID says
- *                      exactly where on the edge it lies, whatever the edge's length.
+ *                      edge itself; its interior samples extend it by hierarchical subdivision
+ *                      of the edge's parameter range, oriented from its lower-id end vertex to its
+ *                      higher-id one: { 1, edge id, end ids..., -1 } is the midpoint of the range,
+ *                      and { ..., -1, i_1, ..., i_n } (each i in {0,1}) the midpoint of the
+ *                      sub-range reached by taking the lower (0) or upper (1) half n times; so
+ *                      n levels give the points at j / 2^(n+1), and an ID says exactly where on
+ *                      the edge its point lies, whatever the edge's length.
  * Paths connect two control points by a polyline on the boundary surface (CAD edges, or their
  * pieces between edge samples). Boundary-condition regions name a set of triangle face tags.
  */
@@ -242,7 +244,8 @@ CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* builder);
  * renamed, so a killed build never leaves a partial asset under that name).
  * @return CADINTERP_OK; CADINTERP_E_CANCELLED; CADINTERP_E_IO (store or output);
  *         CADINTERP_E_STORE_MISMATCH (the store belongs to another host, identity or box);
- *         CADINTERP_E_INFEASIBLE (no feasible sample at all); CADINTERP_E_OUT_OF_MEMORY.
+ *         CADINTERP_E_INFEASIBLE (no element could be built: the host failed everywhere, or
+ *         no element's samples could be mapped onto its canonical mesh); CADINTERP_E_OUT_OF_MEMORY.
  */
 CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* builder,
                                                      const char* output_path);

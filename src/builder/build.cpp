@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -116,6 +117,8 @@ class MeshProblem final : public core::AdaptiveProblem {
       }
       feasible[i] = s->feasible ? 1 : 0;
       if (!s->feasible) ++report_.infeasible_points;
+      if (classes_.size() <= r) classes_.resize(r + 1, -1);
+      if (s->feasible) classes_[r] = combinatorics_class(*s);
     }
     report_progress(0);
   }
@@ -128,20 +131,19 @@ class MeshProblem final : public core::AdaptiveProblem {
     const std::size_t nfields = canon.fields.size();
     std::vector<std::vector<double>> F(nfields);
     for (std::size_t f = 0; f < nfields; ++f) F[f].assign(canon.fields[f].values.size(), 0.0);
+    View m;
     for (int t = 0; t < n; ++t) {
-      const MappedSample* m = mapped(terms[t], centre);
-      if (!m) return std::numeric_limits<double>::infinity();
-      for (std::size_t i = 0; i < nv3; ++i) V[i] += psi[t] * m->vertices[i];
+      if (!view(terms[t], centre, m)) return std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < nv3; ++i) V[i] += psi[t] * m.vertices[i];
       for (std::size_t f = 0; f < nfields; ++f)
-        for (std::size_t i = 0; i < F[f].size(); ++i) F[f][i] += psi[t] * m->fields[f][i];
+        for (std::size_t i = 0; i < F[f].size(); ++i) F[f][i] += psi[t] * m.fields[f][i];
     }
     const Sample& truth = sample(at);
     const double diag = truth.bbox_diagonal();
     double err = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles) /
                  (diag * opt_.geometry_tolerance);
     if (nfields) {
-      const MappedSample* mt = mapped(at, centre);
-      if (!mt) return std::numeric_limits<double>::infinity();
+      if (!view(at, centre, m)) return std::numeric_limits<double>::infinity();
       for (std::size_t f = 0; f < nfields; ++f) {
         const std::vector<double>& tv = truth.fields[f].values;
         const auto mm = std::minmax_element(tv.begin(), tv.end());
@@ -150,7 +152,7 @@ class MeshProblem final : public core::AdaptiveProblem {
         if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
         double e = 0;
         for (std::size_t i = 0; i < F[f].size(); ++i)
-          e = std::max(e, std::abs(F[f][i] - mt->fields[f][i]));
+          e = std::max(e, std::abs(F[f][i] - m.fields[f][i]));
         err = std::max(err, e / (range * opt_.field_tolerance));
       }
     }
@@ -167,20 +169,52 @@ class MeshProblem final : public core::AdaptiveProblem {
   const std::vector<double>& point(int row) const { return points_[static_cast<std::size_t>(row)]; }
   int rows() const { return static_cast<int>(samples_.size()); }
 
-  /// Row `src` in the combinatorics of row `canon`; nullptr (and why(src, canon)) on failure.
-  const MappedSample* mapped(int src, int canon) {
+  /// Row `src`'s vertices and fields in the combinatorics of row `canon`: the source's own
+  /// arrays where the two share combinatorics (identity, no copy), else the mapper's result,
+  /// kept in a cache of bounded size. False (see why()) when the mapper cannot map them.
+  struct View {
+    const double* vertices = nullptr;
+    std::vector<const double*> fields;
+  };
+  bool view(int src, int canon, View& v) {
+    v.fields.clear();
+    if (classes_[static_cast<std::size_t>(src)] == classes_[static_cast<std::size_t>(canon)]) {
+      const Sample& s = sample(src);
+      v.vertices = s.vertices.data();
+      for (const Field& f : s.fields) v.fields.push_back(f.values.data());
+      return true;
+    }
     const auto key = std::make_pair(src, canon);
+    if (failures_.count(key)) return false;
     auto it = maps_.find(key);
     if (it == maps_.end()) {
-      Entry e;
-      e.map = std::make_shared<MappedSample>();
-      if (!mapper_.map(sample(src), sample(canon), *e.map, e.why)) e.map.reset();
-      it = maps_.emplace(key, std::move(e)).first;
+      auto m = std::make_shared<MappedSample>();
+      std::string why;
+      if (!mapper_.map(sample(src), sample(canon), *m, why)) {
+        failures_.emplace(key, why);
+        return false;
+      }
+      std::size_t bytes = m->vertices.size() * sizeof(double);
+      for (const auto& f : m->fields) bytes += f.size() * sizeof(double);
+      // Oldest entries go first once the cache is over budget (maps are recomputed on demand;
+      // they are deterministic).
+      while (!order_.empty() && map_bytes_ + bytes > kMapCacheBytes) {
+        auto old = maps_.find(order_.front());
+        order_.pop_front();
+        if (old == maps_.end()) continue;
+        map_bytes_ -= old->second.second;
+        maps_.erase(old);
+      }
+      it = maps_.emplace(key, std::make_pair(std::move(m), bytes)).first;
+      order_.push_back(key);
+      map_bytes_ += bytes;
     }
-    return it->second.map.get();
+    const MappedSample& m = *it->second.first;
+    v.vertices = m.vertices.data();
+    for (const auto& f : m.fields) v.fields.push_back(f.data());
+    return true;
   }
-  const std::string& why(int src, int canon) { return maps_[std::make_pair(src, canon)].why; }
-  void forget_maps() { maps_.clear(); }
+  const std::string& why(int src, int canon) { return failures_[std::make_pair(src, canon)]; }
 
   /// Calls the progress callback; returns true to cancel.
   bool report_progress(int queued) {
@@ -196,13 +230,27 @@ class MeshProblem final : public core::AdaptiveProblem {
                         : (queued > 0 ? -1.0 : 0.0);
     return opt_.progress(p);
   }
-  void set_elements(int n) { elements_ = n; }
+  void on_wave(int elements) override { elements_ = elements; }
 
  private:
-  struct Entry {
-    std::shared_ptr<MappedSample> map;
-    std::string why;
-  };
+  static constexpr std::size_t kMapCacheBytes = std::size_t(512) << 20;
+
+  // Rows with identical meshes (vertex count, tets, triangles, tags) share a class: the identity
+  // mapping holds between them. Classes are numbered in row order, so deterministically.
+  int combinatorics_class(const Sample& s) {
+    std::uint64_t h = s.vertex_count();
+    auto mix = [&h](std::uint64_t v) { h = (h ^ v) * 0x100000001b3ull; };
+    for (std::uint32_t v : s.tets) mix(v);
+    for (std::uint32_t v : s.triangles) mix(v);
+    for (std::int32_t v : s.triangle_tags) mix(static_cast<std::uint32_t>(v));
+    for (int c : class_by_hash_[h])
+      if (same_combinatorics(s, *representatives_[static_cast<std::size_t>(c)])) return c;
+    const int c = static_cast<int>(representatives_.size());
+    representatives_.push_back(&s);
+    class_by_hash_[h].push_back(c);
+    return c;
+  }
+
   const Host& host_;
   const BuildOptions& opt_;
   const Mapper& mapper_;
@@ -213,7 +261,13 @@ class MeshProblem final : public core::AdaptiveProblem {
   std::vector<std::shared_ptr<const Sample>> samples_;  // per row
   std::vector<std::vector<double>> points_;             // per row
   std::optional<FieldSignature> signature_;
-  std::map<std::pair<int, int>, Entry> maps_;
+  std::vector<int> classes_;                    // per row (-1: infeasible)
+  std::vector<const Sample*> representatives_;  // per class
+  std::map<std::uint64_t, std::vector<int>> class_by_hash_;
+  std::map<std::pair<int, int>, std::pair<std::shared_ptr<MappedSample>, std::size_t>> maps_;
+  std::deque<std::pair<int, int>> order_;  // insertion order of maps_ (eviction)
+  std::map<std::pair<int, int>, std::string> failures_;
+  std::size_t map_bytes_ = 0;
   int done_ = 0, elements_ = 0;
   double host_seconds_done_ = 0;
   bool cancel_ = false;
@@ -288,7 +342,7 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
     infeasible_sample[static_cast<std::size_t>(k)] = !ok;
     any = any || ok;
   }
-  if (!any) throw std::runtime_error("build: the host failed at every sample point");
+  if (!any) throw BuildInfeasible("the host failed at every sample point");
   for (int r = 0; r < problem.rows(); ++r)
     if (!problem.sample(r).feasible)
       out.infeasible.push_back({problem.point(r), problem.sample(r).message});
@@ -312,30 +366,32 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
     const int* terms = cb.element_samples(static_cast<int>(e), &n);
     bool ok =
         cb.element_feasible(static_cast<int>(e)) && crow >= 0 && problem.sample(crow).feasible;
-    std::vector<const MappedSample*> maps;
+    MeshProblem::View m;
     for (int t = 0; ok && t < n; ++t) {
       const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
-      const MappedSample* m = problem.mapped(row, crow);
-      if (!m) {
+      if (!problem.view(row, crow, m)) {
         out.infeasible.push_back(
             {problem.point(crow), "element " + std::to_string(e) + ": " + problem.why(row, crow)});
         ok = false;
       }
-      maps.push_back(m);
     }
     if (ok) {
       const Sample& canon = problem.sample(crow);
       if (!field_source) field_source = &canon;
+      const std::size_t nv3 = canon.vertices.size();
       ed.vertex_count = static_cast<std::uint32_t>(canon.vertex_count());
       ed.tets = canon.tets;
       ed.triangles = canon.triangles;
       ed.triangle_tags = canon.triangle_tags;
       ed.canonical = to_float(canon.vertices);
-      for (const MappedSample* m : maps) {
-        ed.positions.push_back(to_float(m->vertices));
-        if (!m->fields.empty()) {
+      // One term at a time: a view stays valid only until the next view() call.
+      for (int t = 0; t < n; ++t) {
+        problem.view(run.sample_row[static_cast<std::size_t>(terms[t])], crow, m);
+        ed.positions.emplace_back(m.vertices, m.vertices + nv3);
+        if (!canon.fields.empty()) {
           std::vector<float> f;
-          for (const auto& fv : m->fields) f.insert(f.end(), fv.begin(), fv.end());
+          for (std::size_t k = 0; k < canon.fields.size(); ++k)
+            f.insert(f.end(), m.fields[k], m.fields[k] + canon.fields[k].values.size());
           ed.fields.push_back(std::move(f));
         }
       }
@@ -347,8 +403,11 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
     }
     c.elements.push_back(std::move(ed));
   }
-  problem.forget_maps();
-  if (!field_source) throw std::runtime_error("build: no element could be built (all infeasible)");
+  if (!field_source) {
+    std::string why = "no element could be built (all infeasible)";
+    if (!out.infeasible.empty()) why += "; e.g. " + out.infeasible.front().message;
+    throw BuildInfeasible(why);
+  }
 
   core::CompiledBasis::Parts parts = cb.parts();
   for (std::size_t e = 0; e < leaves.size(); ++e)

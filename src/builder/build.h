@@ -31,6 +31,11 @@ struct BuildCancelled : std::runtime_error {
   BuildCancelled() : std::runtime_error("build cancelled") {}
 };
 
+/// No element could be built: the host failed everywhere, or no element's samples could be mapped.
+struct BuildInfeasible : std::runtime_error {
+  explicit BuildInfeasible(const std::string& why) : std::runtime_error("build: " + why) {}
+};
+
 struct BuildOptions {
   core::Degree degree = core::Degree::Linear;
   double geometry_tolerance = 1e-3;  ///< relative to the bbox diagonal
@@ -59,8 +64,8 @@ struct BuildResult {
   cadinterp_build_report report{};
 };
 
-/// Runs the build. Throws BuildCancelled, StoreError (sample_store.h), std::invalid_argument
-/// (options), std::runtime_error (no feasible sample at all).
+/// Runs the build. Throws BuildCancelled, BuildInfeasible, StoreError (sample_store.h),
+/// std::invalid_argument (options).
 BuildResult build(const Host& host, const BuildOptions& options);
 
 /// What a sample store's samples are samples of: host name and identity, K, parameter names and

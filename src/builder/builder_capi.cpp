@@ -29,6 +29,9 @@ cadinterp_status guard(std::string* error, F&& body) {
   } catch (const cadinterp::builder::BuildCancelled& e) {
     if (error) *error = e.what();
     return CADINTERP_E_CANCELLED;
+  } catch (const cadinterp::builder::BuildInfeasible& e) {
+    if (error) *error = e.what();
+    return CADINTERP_E_INFEASIBLE;
   } catch (const cadinterp::builder::StoreError& e) {
     if (error) *error = e.what();
     return e.kind == cadinterp::builder::StoreError::Kind::Mismatch ? CADINTERP_E_STORE_MISMATCH

@@ -203,6 +203,7 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
       if (tree.is_leaf(leaf)) wave.push_back(leaf);
     }
     ++res.waves;
+    problem.on_wave(static_cast<int>(tree.leaves().size()));
     {
       std::vector<IPoint> pts;
       for (int leaf : wave) pts.push_back(centre_of(tree.node(leaf), K));
@@ -325,8 +326,25 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
   res.leaf_error.resize(static_cast<std::size_t>(tree.node_count()),
                         std::numeric_limits<double>::quiet_NaN());
   res.centre_row.resize(static_cast<std::size_t>(tree.node_count()), -1);
-  for (int leaf : tree.leaves())
-    res.centre_row[static_cast<std::size_t>(leaf)] = rows.row(centre_of(tree.node(leaf), K));
+  for (int leaf : tree.leaves()) {
+    const IPoint c = centre_of(tree.node(leaf), K);
+    bool ok = false;
+    const int crow = rows.row(c, &ok);
+    res.centre_row[static_cast<std::size_t>(leaf)] = crow;
+    // Leaves left unchecked by the budget still get an estimate: the error at their centre,
+    // which is evaluated anyway (it is their canonical point).
+    double& err = res.leaf_error[static_cast<std::size_t>(leaf)];
+    const ElementBasis eb = basis.element_basis(leaf);
+    if (!std::isnan(err) || !ok || !terms_feasible(eb)) continue;
+    term_rows.clear();
+    for (int k : eb.terms) term_rows.push_back(rows.row(basis.sample(k)));
+    psi.resize(eb.terms.size());
+    double u[kMaxDim];
+    for (int d = 0; d < K; ++d) u[d] = to_unit(c[d]);
+    eval_element_basis(basis, eb, u, psi.data(), nullptr);
+    err = problem.interpolation_error(crow, crow, term_rows.data(), psi.data(),
+                                      static_cast<int>(term_rows.size()));
+  }
   res.sample_row.resize(static_cast<std::size_t>(basis.sample_count()));
   for (int k = 0; k < basis.sample_count(); ++k)
     res.sample_row[static_cast<std::size_t>(k)] = rows.row(basis.sample(k));

@@ -83,6 +83,8 @@ class AdaptiveProblem {
                                      int n) = 0;
   /// The per-direction error: (value(a) + value(b)) / 2 against value(c), all feasible.
   virtual double midpoint_error(int a, int b, int c) = 0;
+  /// Told the number of elements (leaves) at the start of every wave (for progress reports).
+  virtual void on_wave(int elements) { (void)elements; }
 };
 
 struct AdaptiveRun {
@@ -91,7 +93,10 @@ struct AdaptiveRun {
   std::vector<int> sample_row;     ///< per basis sample: its row
   std::vector<int> centre_row;     ///< per tree node: the row of its centre (-1 if never asked)
   std::vector<char> row_feasible;  ///< per row
-  std::vector<double> leaf_error;  ///< per tree node: last error of a leaf (NaN if unknown)
+  /// Per tree node: the last error measured on a leaf (centre and face centres), or for leaves
+  /// the budget stopped before they were checked, the error at the centre alone; NaN where
+  /// unknown (infeasible leaves).
+  std::vector<double> leaf_error;
   int splits = 0;
   int waves = 0;
   bool budget_exhausted = false;

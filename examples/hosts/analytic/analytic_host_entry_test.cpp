@@ -1,0 +1,154 @@
+// The analytic host as the builder sees it: the entry point (linked statically and loaded from
+// the shared library), and the callbacks writing real samples through the builder's C ABI in a
+// tiny build, including the fail region.
+#include <dlfcn.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "analytic_host.h"
+#include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_builder.h"
+
+#ifndef ANALYTIC_HOST_SO
+#error "ANALYTIC_HOST_SO must name the shared library under test"
+#endif
+
+namespace {
+
+TEST(AnalyticEntry, HostsAndErrors) {
+  const char* error = nullptr;
+  const cadinterp_host* bracket = cadinterp_host_entry(nullptr, nullptr, &error);
+  ASSERT_NE(bracket, nullptr) << error;
+  EXPECT_EQ(bracket->struct_size, sizeof(cadinterp_host));
+  EXPECT_STREQ(bracket->name, "analytic");
+  EXPECT_STREQ(bracket->identity, "analytic bracket v1 (cells=4, levels=2, fail_region=0)");
+  EXPECT_EQ(bracket->parameter_count, 4);
+  EXPECT_STREQ(bracket->parameters[3].name, "bend_angle");
+  EXPECT_STREQ(bracket->parameters[3].unit, "deg");
+  EXPECT_EQ(bracket->thread_safe, 1);
+  EXPECT_NE(bracket->regenerate, nullptr);
+  EXPECT_NE(bracket->references, nullptr);
+  EXPECT_NE(bracket->simulate, nullptr);
+  EXPECT_EQ(analytic_host_model(bracket), bracket->user);
+
+  // Equal requests share a host; others get their own.
+  EXPECT_EQ(cadinterp_host_entry("bracket", "", &error), bracket);
+  const cadinterp_host* plate = cadinterp_host_entry("plate", "edge=4", &error);
+  ASSERT_NE(plate, nullptr) << error;
+  EXPECT_NE(plate, bracket);
+  EXPECT_EQ(plate->parameter_count, 3);
+  EXPECT_EQ(cadinterp_host_entry("plate", "edge=4.000", &error), plate);
+
+  error = nullptr;
+  EXPECT_EQ(cadinterp_host_entry("gearbox", nullptr, &error), nullptr);
+  ASSERT_NE(error, nullptr);
+  EXPECT_NE(std::string(error).find("unknown model"), std::string::npos);
+  error = nullptr;
+  EXPECT_EQ(cadinterp_host_entry("plate", "edge=fast", &error), nullptr);
+  ASSERT_NE(error, nullptr);
+  EXPECT_NE(std::string(error).find("edge"), std::string::npos);
+  EXPECT_EQ(cadinterp_host_entry("plate", "edge=fast", nullptr), nullptr);
+
+  cadinterp_host other = *bracket;
+  other.regenerate = nullptr;
+  EXPECT_EQ(analytic_host_model(&other), nullptr);
+  EXPECT_EQ(analytic_host_model(nullptr), nullptr);
+}
+
+TEST(AnalyticEntry, LoadsFromTheSharedLibrary) {
+  void* lib = dlopen(ANALYTIC_HOST_SO, RTLD_NOW | RTLD_LOCAL);
+  ASSERT_NE(lib, nullptr) << dlerror();
+  auto entry = reinterpret_cast<cadinterp_host_entry_fn>(dlsym(lib, CADINTERP_HOST_ENTRY_NAME));
+  ASSERT_NE(entry, nullptr) << dlerror();
+  // Only the entry is exported: the model functions stay inside.
+  EXPECT_EQ(dlsym(lib, "analytic_model_create"), nullptr);
+  const char* error = nullptr;
+  const cadinterp_host* host = entry("plate", "edge=10", &error);
+  ASSERT_NE(host, nullptr) << error;
+  EXPECT_STREQ(host->identity, "analytic plate v1 (edge=10000 um, levels=2, fail_region=0)");
+  EXPECT_EQ(host->thread_safe, 1);
+  // The library's own copy, not the statically linked one.
+  EXPECT_EQ(analytic_host_model(host), nullptr);
+  dlclose(lib);
+}
+
+struct Build {
+  cadinterp_status status = CADINTERP_E_INTERNAL;
+  cadinterp_build_report report{};
+  std::string error;
+};
+
+Build build(const cadinterp_host* host, const std::string& path) {
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.geometry_tolerance = 1e-2;
+  o.field_tolerance = 5e-2;
+  o.max_samples = 12;
+  o.max_depth = 2;
+  o.threads = 2;
+  Build b;
+  cadinterp_builder* builder = nullptr;
+  b.status = cadinterp_builder_create(host, &o, &builder);
+  if (b.status != CADINTERP_OK) {
+    b.error = cadinterp_builder_open_error();
+    return b;
+  }
+  b.status = cadinterp_builder_run(builder, path.c_str());
+  b.error = cadinterp_builder_error(builder);
+  cadinterp_builder_report(builder, &b.report);
+  cadinterp_builder_destroy(builder);
+  return b;
+}
+
+// Per process, so that builds of other configurations running at the same time do not collide.
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() /
+          (name + "_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+           ".cadi"))
+      .string();
+}
+
+TEST(AnalyticEntry, BracketBuildsThroughTheSharedLibrary) {
+  void* lib = dlopen(ANALYTIC_HOST_SO, RTLD_NOW | RTLD_LOCAL);
+  ASSERT_NE(lib, nullptr) << dlerror();
+  auto entry = reinterpret_cast<cadinterp_host_entry_fn>(dlsym(lib, CADINTERP_HOST_ENTRY_NAME));
+  ASSERT_NE(entry, nullptr);
+  const char* error = nullptr;
+  const cadinterp_host* host = entry("bracket", "cells=2", &error);
+  ASSERT_NE(host, nullptr) << error;
+  const std::string path = temp_path("analytic_bracket");
+  const Build b = build(host, path);
+  ASSERT_EQ(b.status, CADINTERP_OK) << b.error;
+  EXPECT_GT(b.report.samples, 0);
+  EXPECT_EQ(b.report.infeasible_points, 0);
+
+  cadinterp_asset* asset = nullptr;
+  ASSERT_EQ(cadinterp_open(path.c_str(), &asset), CADINTERP_OK) << cadinterp_open_error();
+  EXPECT_EQ(cadinterp_dim(asset), 4);
+  EXPECT_EQ(cadinterp_field_count(asset), 2);
+  int index = -1;
+  EXPECT_EQ(cadinterp_find_field(asset, "von_mises", &index), CADINTERP_OK);
+  EXPECT_EQ(cadinterp_region_count(asset), 2);
+  cadinterp_close(asset);
+  std::remove(path.c_str());
+  dlclose(lib);
+}
+
+TEST(AnalyticEntry, FailRegionMakesPointsInfeasible) {
+  const char* error = nullptr;
+  const cadinterp_host* host = cadinterp_host_entry("bracket", "cells=1,fail_region=1", &error);
+  ASSERT_NE(host, nullptr) << error;
+  const std::string path = temp_path("analytic_bracket_fail");
+  const Build b = build(host, path);
+  ASSERT_EQ(b.status, CADINTERP_OK) << b.error;
+  // The box's upper corner lies in the fail region, and the builder samples the corners.
+  EXPECT_GT(b.report.infeasible_points, 0);
+  EXPECT_GT(b.report.samples, b.report.infeasible_points);
+  std::remove(path.c_str());
+}
+
+}  // namespace

@@ -1,0 +1,28 @@
+// End-to-end measurement shared by the builder's end-to-end test and the figures program:
+// build a model through the C ABI, open the asset with the runtime, and compare it with the
+// host's own answer at random parameter points (the paper's Table 2, ours).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "builder/host_call.h"
+#include "cadinterp/cadinterp_builder.h"
+
+namespace cadinterp::builder {
+
+struct AccuracyReport {
+  int points = 0;      ///< random points evaluated
+  int infeasible = 0;  ///< of which the runtime answered CADINTERP_E_INFEASIBLE
+  double geometry_max = 0, geometry_p99 = 0;  ///< symmetric Hausdorff / bbox diagonal
+  double field_max = 0, field_p99 = 0;        ///< per-vertex fields: max |error| / field range
+};
+
+/// Evaluates the asset at `points` uniformly random x (seeded) and compares with host.evaluate:
+/// geometry by the symmetric Hausdorff distance of the boundary surfaces (meshes may differ in
+/// combinatorics), per-vertex fields at the closest true vertex to each evaluated vertex.
+/// Throws std::runtime_error when the asset cannot be opened or a feasible eval fails.
+AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
+                                unsigned seed);
+
+}  // namespace cadinterp::builder
