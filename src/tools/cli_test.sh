@@ -1,0 +1,228 @@
+#!/usr/bin/env bash
+# Black-box test of the `cadinterp` tool:
+#   cli_test.sh CADINTERP CASES_DIR WORK_DIR [ANALYTIC_HOST_SO]
+# CASES_DIR is conformance/cases (small committed assets); WORK_DIR is scratch. With the builder
+# linked, `build` runs too: with the built-in analytic host if there is one, and by dlopen of
+# ANALYTIC_HOST_SO if given.
+set -u
+CLI=$1
+CASES=$2
+WORK=$3
+HOST_SO=${4:-}
+CHECK="python3 $(dirname "$0")/check_exports.py"
+VALID=$CASES/valid
+rm -rf "$WORK" && mkdir -p "$WORK"
+
+failures=0
+fail() {
+  echo "FAIL: $*"
+  failures=$((failures + 1))
+}
+
+# run EXPECTED_EXIT NAME -- ARGS...: runs the tool, keeps stdout/stderr in $WORK/NAME.{out,err}.
+run() {
+  local expected=$1 name=$2
+  shift 3
+  "$CLI" "$@" >"$WORK/$name.out" 2>"$WORK/$name.err"
+  local rc=$?
+  if [ "$rc" -ne "$expected" ]; then
+    fail "$name: exit $rc, expected $expected: cadinterp $*"
+    sed 's/^/    /' "$WORK/$name.err" | head -20
+    return 1
+  fi
+  return 0
+}
+
+# contains NAME out|err TEXT: the captured output holds TEXT.
+contains() {
+  if ! grep -qF -- "$3" "$WORK/$1.$2"; then
+    fail "$1: std$2 lacks '$3'"
+    sed 's/^/    /' "$WORK/$1.$2" | head -20
+  fi
+}
+
+json_get() {  # json_get FILE PYTHON_EXPR (d is the parsed document)
+  python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"
+}
+
+# ---- help ---------------------------------------------------------------------------------------
+run 0 help -- --help && contains help out "commands:"
+run 0 help_cmd -- help eval && contains help_cmd out "usage: cadinterp eval"
+run 2 no_args -- && contains no_args err "usage: cadinterp COMMAND"
+run 0 version -- --version && contains version out "asset format"
+for c in build inspect eval bench; do
+  run 0 "help_$c" -- $c --help && contains "help_$c" out "usage: cadinterp $c" &&
+    contains "help_$c" out "--help"
+done
+contains help_build out "--geometry-tol"
+contains help_build out "--store"
+contains help_eval out "--gltf"
+contains help_bench out "--iterations"
+
+# ---- usage errors: exit 2 and a message ---------------------------------------------------------
+A2=$VALID/k2_linear/asset.cadi
+run 2 u_command -- frobnicate && contains u_command err "unknown command 'frobnicate'"
+run 2 u_option -- eval "$A2" 0.5 0.5 --feilds temperature && contains u_option err "did you mean --fields"
+run 2 u_missing -- inspect && contains u_missing err "missing argument ASSET"
+run 2 u_extra -- inspect "$A2" extra && contains u_extra err "unexpected argument 'extra'"
+run 2 u_arity -- eval "$A2" 0.5 && contains u_arity err "the asset has 2 parameters (bend, twist); got 1 value"
+run 2 u_number -- eval "$A2" 0.5 abc && contains u_number err "parameter 2 (twist) must be a finite number, got 'abc'"
+run 2 u_nan -- eval "$A2" 0.5 nan && contains u_nan err "must be a finite number"
+run 2 u_field -- eval "$A2" 0.5 0.5 --fields nope && contains u_field err "unknown field 'nope'"
+run 2 u_direction -- eval "$A2" 0.5 0.5 --direction 0,0,0 && contains u_direction err "zero vector"
+run 2 u_iterations -- bench "$A2" --iterations 0 && contains u_iterations err "--iterations must be in [1,"
+run 2 u_int -- bench "$A2" --iterations ten && contains u_int err "--iterations expects an integer, got 'ten'"
+run 2 u_value -- bench "$A2" --iterations && contains u_value err "needs a value"
+run 2 u_twice -- inspect "$A2" --json --json && contains u_twice err "given twice"
+run 2 u_required -- build -o "$WORK/x.cadi" && contains u_required err "missing required option --host"
+run 2 u_degree -- build --host x.so --degree 2 -o "$WORK/x.cadi" && contains u_degree err "--degree must be one of 1|3, got '2'"
+run 2 u_tol -- build --host x.so --geometry-tol -1 -o "$WORK/x.cadi" && contains u_tol err "--geometry-tol must be in"
+contains u_number err "(see 'cadinterp eval --help')"
+
+# ---- runtime errors: exit 1, the status named ---------------------------------------------------
+run 1 r_missing -- inspect "$WORK/none.cadi" && contains r_missing err "CADINTERP_E_IO"
+run 1 r_magic -- inspect "$CASES/invalid/bad_magic/asset.cadi" && contains r_magic err "CADINTERP_E_BAD_MAGIC"
+run 1 r_version -- eval "$CASES/invalid/newer_minor/asset.cadi" 0.5 && contains r_version err "CADINTERP_E_UNSUPPORTED_VERSION"
+run 1 r_outside -- eval "$A2" 0.5 1.5 && contains r_outside err "CADINTERP_E_OUTSIDE_DOMAIN" &&
+  contains r_outside err "twist = 1.5 is outside [0, 1]"
+run 1 r_negative -- eval "$A2" -0.5 0.5 && contains r_negative err "bend = -0.5 is outside"
+run 1 r_infeasible -- eval "$VALID/k2_infeasible/asset.cadi" 0.95 0.95 &&
+  contains r_infeasible err "CADINTERP_E_INFEASIBLE"
+run 1 r_checksum -- eval "$CASES/invalid/blob_checksum/asset.cadi" 0 &&
+  contains r_checksum err "CADINTERP_E_CHECKSUM"
+run 1 r_export -- eval "$A2" 0.5 0.5 --obj "$WORK/no/such/dir/x.obj" && contains r_export err "cannot open"
+
+# ---- inspect ------------------------------------------------------------------------------------
+for dir in "$VALID"/*/; do
+  name=$(basename "$dir")
+  if run 0 "inspect_$name" -- inspect "$dir/asset.cadi"; then
+    contains "inspect_$name" out "parameters"
+    contains "inspect_$name" out "blobs"
+  fi
+  if run 0 "inspectj_$name" -- inspect "$dir/asset.cadi" --json; then
+    python3 -m json.tool "$WORK/inspectj_$name.out" >/dev/null || fail "inspect --json $name: invalid JSON"
+    # Counts agree with the runtime's view of the same asset (eval --json at the box centre).
+    python3 - "$WORK/inspectj_$name.out" <<'EOF' || fail "inspect --json $name: inconsistent"
+import json, sys
+d = json.load(open(sys.argv[1]))
+t = d["tree"]
+assert t["elements"] >= 1 and t["samples"] >= 2 and len(d["parameters"]) >= 1
+assert len(t["depth"]) == len(d["parameters"])
+assert t["infeasible_elements"] == len(t["infeasible"])
+assert d["file_bytes"] == d["header_bytes"] + d["index_bytes"] + d["blob_bytes"]
+assert sum(b["bytes"] for b in d["blobs"]) == d["blob_bytes"]
+pos = sum(b["references"] for b in d["blobs"] if b["kind"] == "positions")
+assert all(b["count"] <= b["references"] for b in d["blobs"])
+assert pos == t["stored_meshes"], (pos, t["stored_meshes"])
+assert d["degree"] in (1, 3)
+EOF
+  fi
+done
+contains inspect_k2_cubic out "degree 3"
+contains inspect_k3_linear out "meshopt"
+contains inspect_k4_linear out "draco"
+contains inspect_k2_infeasible out "infeasible elements:"
+contains inspect_k2_linear out "temperature"
+contains inspect_k2_linear out "tip load"
+[ "$(json_get "$WORK/inspectj_k2_linear.out" 'd["parameters"][1]["name"]')" = twist ] ||
+  fail "inspect --json: parameter name"
+
+# ---- eval and exports ---------------------------------------------------------------------------
+if run 0 eval_text -- eval "$A2" 0.3 0.7 --grad; then
+  contains eval_text out "element"
+  contains eval_text out "volume"
+  contains eval_text out "frontal area"
+  contains eval_text out "d/d twist"
+fi
+if run 0 eval_json -- eval "$A2" 0.3 0.7 --grad --json \
+  --vtu "$WORK/m.vtu" --obj "$WORK/m.obj" --gltf "$WORK/m.gltf"; then
+  python3 -m json.tool "$WORK/eval_json.out" >/dev/null || fail "eval --json: invalid JSON"
+  J=$WORK/eval_json.out
+  V=$(json_get "$J" 'd["vertices"]')
+  T=$(json_get "$J" 'd["tets"]')
+  F=$(json_get "$J" 'd["triangles"]')
+  json_get "$J" 'd["properties"]["volume"] > 0 and d["properties"]["area"] > 0 and len(d["gradient"]) == 2' |
+    grep -qx True || fail "eval --json: properties"
+  SV=$(json_get "$J" '[e["vertices"] for e in d["exports"] if e["format"] == "obj"][0]')
+  $CHECK vtu "$WORK/m.vtu" --vertices "$V" --cells "$T" || fail "vtu (base64) invalid"
+  $CHECK obj "$WORK/m.obj" --vertices "$SV" --triangles "$F" || fail "obj invalid"
+  $CHECK gltf "$WORK/m.gltf" --vertices "$SV" --triangles "$F" || fail "gltf invalid"
+fi
+# Cubic, 3 parameters, ASCII VTU, binary glTF, one field only.
+A3=$VALID/k3_cubic/asset.cadi
+if run 0 eval3 -- eval "$A3" 0.2 0.4 0.6 --fields temperature --json --ascii \
+  --vtu "$WORK/c.vtu" --gltf "$WORK/c.glb" --obj "$WORK/c.obj"; then
+  J=$WORK/eval3.out
+  V=$(json_get "$J" 'd["vertices"]')
+  T=$(json_get "$J" 'd["tets"]')
+  F=$(json_get "$J" 'd["triangles"]')
+  SV=$(json_get "$J" '[e["vertices"] for e in d["exports"] if e["format"] == "gltf"][0]')
+  [ "$(json_get "$J" 'len(d["fields"])')" = 1 ] || fail "eval --fields: one field expected"
+  grep -q 'format="ascii"' "$WORK/c.vtu" || fail "--ascii VTU is not ASCII"
+  $CHECK vtu "$WORK/c.vtu" --vertices "$V" --cells "$T" || fail "vtu (ascii) invalid"
+  $CHECK gltf "$WORK/c.glb" --vertices "$SV" --triangles "$F" || fail "glb invalid"
+  $CHECK obj "$WORK/c.obj" --vertices "$SV" --triangles "$F" || fail "obj (k3) invalid"
+fi
+# The checker must be able to fail: a truncated glb and a wrong count are rejected.
+if [ -f "$WORK/c.glb" ]; then
+  head -c 100 "$WORK/c.glb" >"$WORK/bad.glb"
+  $CHECK gltf "$WORK/bad.glb" --vertices 1 --triangles 1 2>/dev/null && fail "checker accepted a truncated glb"
+  $CHECK vtu "$WORK/c.vtu" --vertices 1 --cells 1 2>/dev/null && fail "checker accepted wrong VTU counts"
+fi
+
+# ---- bench --------------------------------------------------------------------------------------
+if run 0 bench -- bench "$A2" --iterations 20; then
+  for row in "open" "eval, cold" "eval, warm" "eval+grad" "vjp" "properties+grad"; do
+    contains bench out "$row"
+  done
+fi
+
+# ---- build (needs the builder and a host) -------------------------------------------------------
+build_with() {  # build_with TAG HOST
+  local tag=$1 host=$2 out=$WORK/$1.cadi store=$WORK/$1.store
+  local opts=(build --host "$host" --model bracket --host-options cells=1 --max-samples 12
+    --max-depth 2 --threads 2 --store "$store" -o "$out")
+  if run 0 "build_$tag" -- "${opts[@]}"; then
+    for row in "samples" "elements" "stored meshes" "per sample" "asset"; do
+      contains "build_$tag" out "$row"
+    done
+    run 0 "build_${tag}_inspect" -- inspect "$out" --json &&
+      python3 -m json.tool "$WORK/build_${tag}_inspect.out" >/dev/null || fail "inspect of a built asset"
+    # Evaluate at the centre of the box the asset declares.
+    local x
+    x=$(json_get "$WORK/build_${tag}_inspect.out" \
+      '" ".join(repr((p["lower"] + p["upper"]) / 2) for p in d["parameters"])')
+    # shellcheck disable=SC2086
+    run 0 "build_${tag}_eval" -- eval "$out" $x --obj "$WORK/$tag.obj" && contains "build_${tag}_eval" out "volume"
+    # Resuming from the store evaluates nothing again and writes the same bytes.
+    cp "$out" "$WORK/$tag.first.cadi"
+    if run 0 "build_${tag}_resume" -- "${opts[@]}"; then
+      contains "build_${tag}_resume" out "host evaluations 0"
+      cmp -s "$out" "$WORK/$tag.first.cadi" || fail "build $tag: resumed build is not byte-identical"
+    fi
+  fi
+}
+if grep -q "^builder: yes" "$WORK/version.out"; then
+  run 2 u_host -- build --host nosuchhost -o "$WORK/x.cadi" && contains u_host err "unknown host 'nosuchhost'"
+  run 1 r_host -- build --host "$WORK/missing.so" -o "$WORK/x.cadi" && contains r_host err "cannot load host library"
+  if grep -q "^built-in hosts:.*analytic" "$WORK/version.out"; then
+    build_with builtin analytic
+    run 1 r_model -- build --host analytic --model nosuchmodel -o "$WORK/x.cadi" &&
+      contains r_model err "refused model 'nosuchmodel'"
+  else
+    echo "note: no built-in analytic host in this build"
+  fi
+  if [ -n "$HOST_SO" ]; then
+    build_with dlopen "$HOST_SO"
+  else
+    echo "note: no analytic host library given; build by dlopen not tested"
+  fi
+else
+  echo "note: built without the builder; build not tested"
+fi
+
+if [ "$failures" -ne 0 ]; then
+  echo "$failures check(s) failed (outputs in $WORK)"
+  exit 1
+fi
+echo "all cadinterp CLI checks passed"
