@@ -1,10 +1,12 @@
 #include "builder/build.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <exception>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -189,9 +191,12 @@ class MeshProblem final : public core::AdaptiveProblem {
   struct View {
     const double* vertices = nullptr;
     std::vector<const double*> fields;
+    std::shared_ptr<const MappedSample> hold;  // keeps a cached map alive while viewed
   };
+  /// Thread-safe: the driver's errors() runs it from several threads.
   bool view(int src, int canon, View& v) {
     v.fields.clear();
+    v.hold.reset();
     if (classes_[static_cast<std::size_t>(src)] == classes_[static_cast<std::size_t>(canon)]) {
       const Sample& s = sample(src);
       v.vertices = s.vertices.data();
@@ -199,19 +204,27 @@ class MeshProblem final : public core::AdaptiveProblem {
       return true;
     }
     const auto key = std::make_pair(src, canon);
-    if (failures_.count(key)) return false;
-    auto it = maps_.find(key);
-    if (it == maps_.end()) {
+    std::shared_ptr<const MappedSample> found;
+    {
+      std::lock_guard<std::mutex> lock(maps_mu_);
+      if (failures_.count(key)) return false;
+      auto it = maps_.find(key);
+      if (it != maps_.end()) found = it->second.first;
+    }
+    if (!found) {
+      // Mapped outside the lock (mapping is the expensive part); two threads may map the same
+      // pair, with the same deterministic result.
       auto m = std::make_shared<MappedSample>();
       std::string why;
-      if (!mapper_.map(sample(src), sample(canon), *m, why)) {
+      const bool ok = mapper_.map(sample(src), sample(canon), *m, why);
+      std::lock_guard<std::mutex> lock(maps_mu_);
+      if (!ok) {
         failures_.emplace(key, why);
         return false;
       }
       std::size_t bytes = m->vertices.size() * sizeof(double);
       for (const auto& f : m->fields) bytes += f.size() * sizeof(double);
-      // Oldest entries go first once the cache is over budget (maps are recomputed on demand;
-      // they are deterministic).
+      // Oldest entries go first once the cache is over budget (maps are recomputed on demand).
       while (!order_.empty() && map_bytes_ + bytes > kMapCacheBytes) {
         auto old = maps_.find(order_.front());
         order_.pop_front();
@@ -219,16 +232,50 @@ class MeshProblem final : public core::AdaptiveProblem {
         map_bytes_ -= old->second.second;
         maps_.erase(old);
       }
-      it = maps_.emplace(key, std::make_pair(std::move(m), bytes)).first;
-      order_.push_back(key);
-      map_bytes_ += bytes;
+      if (maps_.emplace(key, std::make_pair(m, bytes)).second) {
+        order_.push_back(key);
+        map_bytes_ += bytes;
+      }
+      found = m;
     }
-    const MappedSample& m = *it->second.first;
-    v.vertices = m.vertices.data();
-    for (const auto& f : m.fields) v.fields.push_back(f.data());
+    v.hold = found;
+    v.vertices = found->vertices.data();
+    for (const auto& f : found->fields) v.fields.push_back(f.data());
     return true;
   }
-  const std::string& why(int src, int canon) { return failures_[std::make_pair(src, canon)]; }
+  const std::string& why(int src, int canon) {
+    std::lock_guard<std::mutex> lock(maps_mu_);
+    return failures_[std::make_pair(src, canon)];
+  }
+
+  /// The wave's refinement tests on the executor's thread count (each is independent).
+  void errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) override {
+    out.assign(q.size(), 0.0);
+    const std::size_t threads =
+        std::min<std::size_t>(q.size(), static_cast<std::size_t>(std::max(1, exec_.concurrency())));
+    if (threads <= 1) return AdaptiveProblem::errors(q, out);
+    std::atomic<std::size_t> next{0};
+    std::exception_ptr error;
+    std::mutex error_mu;
+    auto work = [&] {
+      try {
+        for (std::size_t i; (i = next.fetch_add(1)) < q.size();)
+          out[i] = q[i].midpoint
+                       ? midpoint_error(q[i].terms[0], q[i].terms[1], q[i].at)
+                       : interpolation_error(q[i].at, q[i].centre, q[i].terms.data(),
+                                             q[i].psi.data(), static_cast<int>(q[i].terms.size()));
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mu);
+        if (!error) error = std::current_exception();
+        next = q.size();
+      }
+    };
+    std::vector<std::thread> pool;
+    for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+  }
 
   /// Calls the progress callback; returns true to cancel.
   bool report_progress(int queued) {
@@ -282,6 +329,7 @@ class MeshProblem final : public core::AdaptiveProblem {
   std::deque<std::pair<int, int>> order_;  // insertion order of maps_ (eviction)
   std::map<std::pair<int, int>, std::string> failures_;
   std::size_t map_bytes_ = 0;
+  std::mutex maps_mu_;  // guards maps_, order_, failures_, map_bytes_
   int done_ = 0, elements_ = 0;
   double host_seconds_done_ = 0;
   bool cancel_ = false;

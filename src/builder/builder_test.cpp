@@ -474,13 +474,13 @@ TEST(Build, ResumesAfterKillWithoutRepeatingFinishedSamples) {
     if (pid == 0) {
       BoxHost h(2);
       h.log_path = log;
-      h.sleep_ms = 4;
+      h.sleep_ms = 10;
       _exit(build(h, o, path).status == CADINTERP_OK ? 0 : 3);
     }
     const bool kill_it = kills < 6;
     if (kill_it) {
       std::this_thread::sleep_for(
-          std::chrono::milliseconds(std::uniform_int_distribution<int>(30, 200)(rng)));
+          std::chrono::milliseconds(std::uniform_int_distribution<int>(20, 150)(rng)));
       ::kill(pid, SIGKILL);
     }
     int status = 0;

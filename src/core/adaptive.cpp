@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <queue>
 #include <stdexcept>
+#include <tuple>
 #include <unordered_map>
 
 #include "core/compiled_basis.h"
@@ -16,6 +18,21 @@ double max_norm_error(const double* approx, const double* truth, int m) {
   double e = 0.0;
   for (int i = 0; i < m; ++i) e = std::max(e, std::abs(approx[i] - truth[i]));
   return e;
+}
+
+bool AdaptiveProblem::ErrorQuery::operator<(const ErrorQuery& o) const {
+  return std::tie(midpoint, at, centre, terms, psi) <
+         std::tie(o.midpoint, o.at, o.centre, o.terms, o.psi);
+}
+
+void AdaptiveProblem::errors(const std::vector<ErrorQuery>& queries, std::vector<double>& out) {
+  out.resize(queries.size());
+  for (std::size_t i = 0; i < queries.size(); ++i) {
+    const ErrorQuery& q = queries[i];
+    out[i] = q.midpoint ? midpoint_error(q.terms[0], q.terms[1], q.at)
+                        : interpolation_error(q.at, q.centre, q.terms.data(), q.psi.data(),
+                                              static_cast<int>(q.terms.size()));
+  }
 }
 
 namespace {
@@ -216,6 +233,68 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
       }
       if (opt.check_face_centres) rows.ensure(pts);
     }
+    // The wave's errors, computed together (problem.errors may run them in parallel) on the
+    // basis as it stands; the decisions below look them up, and compute afresh only where an
+    // earlier split of the wave changed an element's terms or weights.
+    std::map<AdaptiveProblem::ErrorQuery, double> memo;
+    auto solve = [&](std::vector<AdaptiveProblem::ErrorQuery>& qs) {
+      std::vector<double> out;
+      problem.errors(qs, out);
+      for (std::size_t i = 0; i < qs.size(); ++i) memo.emplace(std::move(qs[i]), out[i]);
+      qs.clear();
+    };
+    {
+      std::vector<AdaptiveProblem::ErrorQuery> qs;
+      std::vector<std::pair<int, std::size_t>> first;  // leaf, its first query
+      for (int leaf : wave) {
+        const KdTree::Node& node = tree.node(leaf);
+        const IPoint c = centre_of(node, K);
+        bool ok = false;
+        const int crow = rows.row(c, &ok);
+        const ElementBasis eb = basis.element_basis(leaf);
+        if (!ok || !terms_feasible(eb)) continue;
+        AdaptiveProblem::ErrorQuery q;
+        q.centre = crow;
+        for (int k : eb.terms) q.terms.push_back(rows.row(basis.sample(k)));
+        q.psi.resize(eb.terms.size());
+        std::vector<IPoint> at{c};
+        if (opt.check_face_centres) face_centres(node, at);
+        first.emplace_back(leaf, qs.size());
+        for (const IPoint& p : at) {
+          bool pok = false;
+          q.at = rows.row(p, &pok);
+          if (!pok) continue;
+          double u[kMaxDim];
+          for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
+          eval_element_basis(basis, eb, u, q.psi.data(), nullptr);
+          qs.push_back(q);
+        }
+      }
+      std::vector<AdaptiveProblem::ErrorQuery> centre_qs = qs;
+      solve(qs);
+      // Split directions of the elements above tolerance.
+      for (std::size_t f = 0; f < first.size(); ++f) {
+        const std::size_t end = f + 1 < first.size() ? first[f + 1].second : centre_qs.size();
+        double err = 0;
+        for (std::size_t i = first[f].second; i < end; ++i) err = std::max(err, memo[centre_qs[i]]);
+        if (!(err > opt.tolerance)) continue;
+        const KdTree::Node& node = tree.node(first[f].first);
+        const IPoint c = centre_of(node, K);
+        for (int d = 0; d < K; ++d) {
+          if (node.level[d] >= opt.max_level) continue;
+          IPoint a = c, b = c;
+          a[d] = node.box.lo[d];
+          b[d] = node.box.hi[d];
+          bool oka = false, okb = false;
+          AdaptiveProblem::ErrorQuery q;
+          q.midpoint = true;
+          q.at = rows.row(c);
+          q.terms = {rows.row(a, &oka), rows.row(b, &okb)};
+          if (oka && okb) qs.push_back(std::move(q));
+        }
+      }
+      solve(qs);
+    }
 
     for (int leaf : wave) {
       if (!tree.is_leaf(leaf)) continue;
@@ -246,8 +325,16 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
           double u[kMaxDim];
           for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
           eval_element_basis(basis, eb, u, psi.data(), nullptr);
-          return problem.interpolation_error(prow, crow, term_rows.data(), psi.data(),
-                                             static_cast<int>(term_rows.size()));
+          AdaptiveProblem::ErrorQuery q;
+          q.at = prow;
+          q.centre = crow;
+          q.terms = term_rows;
+          q.psi = psi;
+          const auto it = memo.find(q);
+          return it != memo.end()
+                     ? it->second
+                     : problem.interpolation_error(prow, crow, term_rows.data(), psi.data(),
+                                                   static_cast<int>(term_rows.size()));
         };
         err = error_at(c, crow);
         if (opt.check_face_centres) {
@@ -269,8 +356,15 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
             b[d] = node.box.hi[d];
             bool oka = false, okb = false;
             const int ra = rows.row(a, &oka), rb = rows.row(b, &okb);
-            const double e = oka && okb ? problem.midpoint_error(ra, rb, crow)
-                                        : std::numeric_limits<double>::infinity();
+            double e = std::numeric_limits<double>::infinity();
+            if (oka && okb) {
+              AdaptiveProblem::ErrorQuery q;
+              q.midpoint = true;
+              q.at = crow;
+              q.terms = {ra, rb};
+              const auto it = memo.find(q);
+              e = it != memo.end() ? it->second : problem.midpoint_error(ra, rb, crow);
+            }
             // Ties go to the coarser direction, then to the lower index.
             if (e > best || (e == best && node.level[d] < node.level[dir])) {
               best = e;

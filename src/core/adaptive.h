@@ -85,6 +85,21 @@ class AdaptiveProblem {
   virtual double midpoint_error(int a, int b, int c) = 0;
   /// Told the number of elements (leaves) at the start of every wave (for progress reports).
   virtual void on_wave(int elements) { (void)elements; }
+
+  /// One interpolation_error (midpoint = false) or midpoint_error (midpoint = true: terms holds
+  /// a and b, at is c) call.
+  struct ErrorQuery {
+    bool midpoint = false;
+    int at = -1, centre = -1;
+    std::vector<int> terms;
+    std::vector<double> psi;
+    bool operator<(const ErrorQuery& o) const;
+  };
+  /// out[i] = the error of queries[i]. The driver asks for a wave's errors at once before it
+  /// decides the wave's splits in order; the default answers them in turn, a problem may answer
+  /// them in parallel (its error functions must then be thread-safe). Errors are pure functions
+  /// of their arguments, so the order never changes a result.
+  virtual void errors(const std::vector<ErrorQuery>& queries, std::vector<double>& out);
 };
 
 struct AdaptiveRun {
