@@ -244,14 +244,23 @@ CompiledBasis CompiledBasis::from_parts(Parts p) {
   require_offsets(p.elem_term_begin, elems, p.term_sample.size(), "element term offsets");
   require_offsets(p.bs_col_begin, bsplines, p.col_term.size(), "B-spline coefficient offsets");
   require_size(p.col_value, p.col_term.size(), "coefficient values");
-  for (std::size_t i = 0; i < p.bs_centre.size(); ++i)
-    if (!std::isfinite(p.bs_centre[i]) || !(p.bs_inv_width[i] > 0.0) ||
-        !std::isfinite(p.bs_inv_width[i]))
-      invalid("B-spline centre or width");
+  // Every B-spline of the tree has knot spacing 2^-level (level 0..kMaxLevel) and a centre on
+  // that spacing's grid within a few spacings of [0,1]: anything else did not come from a tree
+  // and could make psi overflow.
+  for (std::size_t i = 0; i < p.bs_centre.size(); ++i) {
+    const double iw = p.bs_inv_width[i], c = p.bs_centre[i];
+    int e = 0;
+    if (!(iw >= 1.0 && iw <= std::ldexp(1.0, kMaxLevel)) || std::frexp(iw, &e) != 0.5)
+      invalid("B-spline width is not a power of two of the tree");
+    if (!(c >= -3.0 && c <= 4.0) || c * iw != std::floor(c * iw))
+      invalid("B-spline centre is off its level's grid");
+  }
   for (std::int32_t s : p.term_sample)
     if (s < 0 || static_cast<std::size_t>(s) >= samples) invalid("term sample out of range");
+  // Refinement masks (Eq. 5, 12) are at most 1 and the cubic boundary extrapolation weights are
+  // small integers per direction; 2^20 leaves room for any K and rejects garbage.
   for (double a : p.col_value)
-    if (!std::isfinite(a)) invalid("non-finite coefficient");
+    if (!(std::abs(a) <= 0x1p20)) invalid("coefficient not finite or out of range");
 
   CompiledBasis c;
   for (std::size_t e = 0; e < elems; ++e) {
@@ -270,6 +279,22 @@ CompiledBasis CompiledBasis::from_parts(Parts p) {
   }
   for (std::size_t d = 0; d < k; ++d) c.inv_extent_.push_back(1.0 / (p.hi[d] - p.lo[d]));
   c.p_ = std::move(p);
+  // The basis' defining property, checked where it is cheapest: the weights of each feasible
+  // element sum to one at its centre (partition of unity, §4). Arrays that pass every check
+  // above but were not built by Algorithm 1 fail here instead of interpolating garbage.
+  EvalWorkspace ws = c.make_workspace();
+  BasisWeights w;
+  double lo[kMaxDim], hi[kMaxDim], x[kMaxDim];
+  for (int e = 0; e < c.element_count(); ++e) {
+    if (!c.element_feasible(e)) continue;
+    c.element_box(e, lo, hi);
+    for (std::size_t d = 0; d < k; ++d) x[d] = 0.5 * (lo[d] + hi[d]);
+    c.eval_element(e, x, ws, false, &w);
+    double sum = 0.0;
+    for (int t = 0; t < w.count; ++t) sum += w.psi[t];
+    if (!(std::abs(sum - 1.0) <= 1e-6))
+      invalid("element " + std::to_string(e) + ": weights do not sum to one");
+  }
   return c;
 }
 

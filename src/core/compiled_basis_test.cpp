@@ -60,6 +60,15 @@ TEST(CompiledBasisParts, RejectsEachKindOfCorruption) {
       {"coefficient",
        [](CompiledBasis::Parts& p) { p.col_value[2] = std::numeric_limits<double>::infinity(); }},
       {"width", [](CompiledBasis::Parts& p) { p.bs_inv_width[0] = 0.0; }},
+      // Finite but not from a tree (found by fuzzing: NaN or inf gradients downstream).
+      {"huge width", [](CompiledBasis::Parts& p) { p.bs_inv_width[0] = 2.7e154; }},
+      {"odd width", [](CompiledBasis::Parts& p) { p.bs_inv_width[0] *= 1.5; }},
+      {"off-grid centre", [](CompiledBasis::Parts& p) { p.bs_centre[0] += 1e-3; }},
+      {"huge coefficient", [](CompiledBasis::Parts& p) { p.col_value[0] = 1.76e159; }},
+      {"no partition of unity",
+       [](CompiledBasis::Parts& p) {
+         for (double& v : p.col_value) v *= 1.25;
+       }},
       {"truncated", [](CompiledBasis::Parts& p) { p.col_value.pop_back(); }},
       {"box", [](CompiledBasis::Parts& p) { p.elem_box[0] = -0.25; }},
   };
