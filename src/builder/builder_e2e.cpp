@@ -28,6 +28,22 @@ struct WorkspaceDestroyer {
 
 }  // namespace
 
+BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
+                         const std::string& output_path) {
+  BuildOutcome r;
+  cadinterp_builder* b = nullptr;
+  r.status = cadinterp_builder_create(&host, &options, &b);
+  if (r.status != CADINTERP_OK) {
+    r.error = cadinterp_builder_open_error();
+    return r;
+  }
+  r.status = cadinterp_builder_run(b, output_path.c_str());
+  r.error = cadinterp_builder_error(b);
+  cadinterp_builder_report(b, &r.report);
+  cadinterp_builder_destroy(b);
+  return r;
+}
+
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed) {
   cadinterp_asset* raw = nullptr;

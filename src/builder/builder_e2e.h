@@ -18,6 +18,15 @@ struct AccuracyReport {
   double field_max = 0, field_p99 = 0;        ///< per-vertex fields: max |error| / field range
 };
 
+/// Outcome of one build through the C ABI (create, run, report, destroy).
+struct BuildOutcome {
+  cadinterp_status status = CADINTERP_E_INTERNAL;
+  cadinterp_build_report report{};
+  std::string error;  ///< the builder's message (or cadinterp_builder_open_error's)
+};
+BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
+                         const std::string& output_path);
+
 /// Evaluates the asset at `points` uniformly random x (seeded) and compares with host.evaluate:
 /// geometry by the symmetric Hausdorff distance of the boundary surfaces (meshes may differ in
 /// combinatorics), per-vertex fields at the closest true vertex to each evaluated vertex.

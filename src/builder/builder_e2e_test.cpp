@@ -23,21 +23,9 @@ std::string temp_path(const std::string& name) {
       .string();
 }
 
-struct Result {
-  cadinterp_status status;
-  cadinterp_build_report report{};
-  std::string error;
-};
-
-Result build(const cadinterp_host* host, const cadinterp_build_options& o, const std::string& out) {
-  cadinterp_builder* b = nullptr;
-  Result r{cadinterp_builder_create(host, &o, &b), {}, ""};
-  if (r.status != CADINTERP_OK) return r;
-  r.status = cadinterp_builder_run(b, out.c_str());
-  r.error = cadinterp_builder_error(b);
-  cadinterp_builder_report(b, &r.report);
-  cadinterp_builder_destroy(b);
-  return r;
+builder::BuildOutcome build(const cadinterp_host* host, const cadinterp_build_options& o,
+                            const std::string& out) {
+  return builder::build_asset(*host, o, out);
 }
 
 const cadinterp_host* host(const char* model, const char* options) {
@@ -57,7 +45,7 @@ TEST(EndToEnd, BracketMatchesItsHost) {
   o.max_samples = 300;
   o.threads = 2;
   const std::string path = temp_path("bracket.cadi");
-  const Result r = build(h, o, path);
+  const builder::BuildOutcome r = build(h, o, path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
   const builder::AccuracyReport a = builder::measure_accuracy(path, builder::Host(*h), 100, 1);
   std::printf(
@@ -84,7 +72,7 @@ TEST(EndToEnd, PlateBuildsWhereCombinatoricsAgreeAndNamesTheMappingOtherwise) {
   const std::string path = temp_path("plate.cadi");
   const cadinterp_host* coarse = host("plate", "edge=100");
   ASSERT_NE(coarse, nullptr);
-  Result r = build(coarse, o, path);
+  builder::BuildOutcome r = build(coarse, o, path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
   const builder::AccuracyReport a = builder::measure_accuracy(path, builder::Host(*coarse), 100, 2);
   std::printf(
@@ -109,7 +97,7 @@ TEST(EndToEnd, FailRegionBecomesInfeasibleAndTheRestIsAccurate) {
   o.max_samples = 200;
   o.threads = 2;
   const std::string path = temp_path("fail.cadi");
-  const Result r = build(h, o, path);
+  const builder::BuildOutcome r = build(h, o, path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
   EXPECT_GT(r.report.infeasible_points, 0);
   const builder::AccuracyReport a = builder::measure_accuracy(path, builder::Host(*h), 100, 3);

@@ -22,21 +22,16 @@ struct Run {
   double seconds = 0;
 };
 
-Run build(const cadinterp_host* host, cadinterp_build_options o, const std::string& path) {
-  cadinterp_builder* b = nullptr;
-  if (cadinterp_builder_create(host, &o, &b) != CADINTERP_OK) {
-    std::fprintf(stderr, "builder_create: %s\n", cadinterp_builder_open_error());
-    std::exit(1);
-  }
+Run build(const cadinterp_host* host, const cadinterp_build_options& o, const std::string& path) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (cadinterp_builder_run(b, path.c_str()) != CADINTERP_OK) {
-    std::fprintf(stderr, "build: %s\n", cadinterp_builder_error(b));
+  const builder::BuildOutcome b = builder::build_asset(*host, o, path);
+  if (b.status != CADINTERP_OK) {
+    std::fprintf(stderr, "build: %s\n", b.error.c_str());
     std::exit(1);
   }
   Run r;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  cadinterp_builder_report(b, &r.report);
-  cadinterp_builder_destroy(b);
+  r.report = b.report;
   return r;
 }
 

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "builder/build.h"
+#include "builder/builder_e2e.h"
 #include "builder/sample_store.h"
 #include "builder/surface_distance.h"
 #include "cadinterp/cadinterp.h"
@@ -75,6 +76,16 @@ struct BoxHost {
     host.thread_safe = 1;
   }
 
+  // The mesh at x: the shared box, or where vary_resolution refines it, one built into `local`.
+  const format::BoxMesh* box_at(const double* x, format::SyntheticSpec& s,
+                                format::BoxMesh& local) const {
+    s = spec;
+    if (!vary_resolution || x[0] <= 0.5) return &box;
+    s.cells[0] = 4;
+    local = format::synthetic_box(s);
+    return &local;
+  }
+
   static cadinterp_status regenerate(void* user, const double* x, cadinterp_sample* out) {
     auto* h = static_cast<BoxHost*>(user);
     ++h->calls;
@@ -90,14 +101,9 @@ struct BoxHost {
       cadinterp_sample_set_message(out, "fillet too large");
       return CADINTERP_E_INFEASIBLE;
     }
-    format::SyntheticSpec spec = h->spec;
+    format::SyntheticSpec spec;
     format::BoxMesh local;
-    const format::BoxMesh* box = &h->box;
-    if (h->vary_resolution && x[0] > 0.5) {
-      spec.cells[0] = 4;
-      local = format::synthetic_box(spec);
-      box = &local;
-    }
+    const format::BoxMesh* box = h->box_at(x, spec, local);
     std::vector<float> pos, fld;
     format::synthetic_host(spec, *box, x, pos, fld);
     const std::vector<double> V(pos.begin(), pos.end());
@@ -114,14 +120,9 @@ struct BoxHost {
   static cadinterp_status simulate(void* user, const double* x, const cadinterp_host_mesh* m,
                                    cadinterp_sample* out) {
     auto* h = static_cast<BoxHost*>(user);
-    format::SyntheticSpec spec = h->spec;
+    format::SyntheticSpec spec;
     format::BoxMesh local;
-    const format::BoxMesh* box = &h->box;
-    if (h->vary_resolution && x[0] > 0.5) {
-      spec.cells[0] = 4;
-      local = format::synthetic_box(spec);
-      box = &local;
-    }
+    const format::BoxMesh* box = h->box_at(x, spec, local);
     std::vector<float> pos, fld;
     format::synthetic_host(spec, *box, x, pos, fld);
     const std::vector<double> temp(fld.begin(), fld.begin() + static_cast<long>(m->vertex_count));
@@ -137,25 +138,9 @@ struct BoxHost {
   Sample truth(const double* x) const { return builder::Host(host).evaluate(x); }
 };
 
-struct Built {
-  cadinterp_status status = CADINTERP_E_INTERNAL;
-  cadinterp_build_report report{};
-  std::string error;
-};
-
-Built build(BoxHost& h, cadinterp_build_options o, const std::string& path) {
-  cadinterp_builder* b = nullptr;
-  Built r;
-  r.status = cadinterp_builder_create(&h.host, &o, &b);
-  if (r.status != CADINTERP_OK) {
-    r.error = cadinterp_builder_open_error();
-    return r;
-  }
-  r.status = cadinterp_builder_run(b, path.c_str());
-  r.error = cadinterp_builder_error(b);
-  cadinterp_builder_report(b, &r.report);
-  cadinterp_builder_destroy(b);
-  return r;
+using Built = builder::BuildOutcome;
+Built build(BoxHost& h, const cadinterp_build_options& o, const std::string& path) {
+  return builder::build_asset(h.host, o, path);
 }
 
 cadinterp_build_options small_options() {

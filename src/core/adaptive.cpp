@@ -206,8 +206,51 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
       }
   };
 
-  std::vector<double> psi;
-  std::vector<int> term_rows;
+  using Query = AdaptiveProblem::ErrorQuery;
+  // The refinement test at grid point p (row prow) of an element: its terms and their weights
+  // at p, against the host at p, in the combinatorics of the element's centre (row crow).
+  auto error_query = [&](const ElementBasis& eb, int crow, const IPoint& p, int prow) {
+    Query q;
+    q.at = prow;
+    q.centre = crow;
+    for (int k : eb.terms) q.terms.push_back(rows.row(basis.sample(k)));
+    q.psi.resize(eb.terms.size());
+    double u[kMaxDim];
+    for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
+    eval_element_basis(basis, eb, u, q.psi.data(), nullptr);
+    return q;
+  };
+  // The per-direction test along d (the two face centres against the centre); false where a
+  // face centre is infeasible.
+  auto midpoint_query = [&](const KdTree::Node& node, int d, Query& q) {
+    const IPoint c = centre_of(node, K);
+    IPoint a = c, b = c;
+    a[d] = node.box.lo[d];
+    b[d] = node.box.hi[d];
+    bool oka = false, okb = false;
+    q = Query{};
+    q.midpoint = true;
+    q.at = rows.row(c);
+    q.terms = {rows.row(a, &oka), rows.row(b, &okb)};
+    return oka && okb;
+  };
+  std::map<Query, double> memo;  // the current wave's answers
+  auto solve = [&](std::vector<Query>& qs) {
+    std::vector<double> out;
+    problem.errors(qs, out);
+    for (std::size_t i = 0; i < qs.size(); ++i) memo.emplace(std::move(qs[i]), out[i]);
+    qs.clear();
+  };
+  auto answer = [&](const Query& q) {
+    auto it = memo.find(q);
+    if (it == memo.end()) {
+      std::vector<Query> one{q};
+      solve(one);
+      it = memo.find(q);
+    }
+    return it->second;
+  };
+
   bool stop = false;
   while (!queue.empty() && !stop) {
     // One wave: every queued element. Its points are evaluated together (centres, then the face
@@ -233,19 +276,15 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
       }
       if (opt.check_face_centres) rows.ensure(pts);
     }
-    // The wave's errors, computed together (problem.errors may run them in parallel) on the
-    // basis as it stands; the decisions below look them up, and compute afresh only where an
+    // The wave's errors, asked for together (problem.errors may answer them in parallel) on the
+    // basis as it stands. The decisions below look them up, and compute afresh only where an
     // earlier split of the wave changed an element's terms or weights.
-    std::map<AdaptiveProblem::ErrorQuery, double> memo;
-    auto solve = [&](std::vector<AdaptiveProblem::ErrorQuery>& qs) {
-      std::vector<double> out;
-      problem.errors(qs, out);
-      for (std::size_t i = 0; i < qs.size(); ++i) memo.emplace(std::move(qs[i]), out[i]);
-      qs.clear();
-    };
+    memo.clear();
     {
-      std::vector<AdaptiveProblem::ErrorQuery> qs;
-      std::vector<std::pair<int, std::size_t>> first;  // leaf, its first query
+      std::vector<Query> qs;
+      std::vector<std::pair<int, double>> above;  // leaf, its largest error
+      std::vector<std::size_t> first;             // per feasible leaf: its first query
+      std::vector<int> leaves;
       for (int leaf : wave) {
         const KdTree::Node& node = tree.node(leaf);
         const IPoint c = centre_of(node, K);
@@ -253,45 +292,32 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
         const int crow = rows.row(c, &ok);
         const ElementBasis eb = basis.element_basis(leaf);
         if (!ok || !terms_feasible(eb)) continue;
-        AdaptiveProblem::ErrorQuery q;
-        q.centre = crow;
-        for (int k : eb.terms) q.terms.push_back(rows.row(basis.sample(k)));
-        q.psi.resize(eb.terms.size());
         std::vector<IPoint> at{c};
         if (opt.check_face_centres) face_centres(node, at);
-        first.emplace_back(leaf, qs.size());
+        first.push_back(qs.size());
+        leaves.push_back(leaf);
         for (const IPoint& p : at) {
           bool pok = false;
-          q.at = rows.row(p, &pok);
-          if (!pok) continue;
-          double u[kMaxDim];
-          for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
-          eval_element_basis(basis, eb, u, q.psi.data(), nullptr);
-          qs.push_back(q);
+          const int prow = rows.row(p, &pok);
+          if (pok) qs.push_back(error_query(eb, crow, p, prow));
         }
       }
-      std::vector<AdaptiveProblem::ErrorQuery> centre_qs = qs;
-      solve(qs);
-      // Split directions of the elements above tolerance.
-      for (std::size_t f = 0; f < first.size(); ++f) {
-        const std::size_t end = f + 1 < first.size() ? first[f + 1].second : centre_qs.size();
+      first.push_back(qs.size());
+      std::vector<double> out;
+      problem.errors(qs, out);
+      for (std::size_t l = 0; l < leaves.size(); ++l) {
         double err = 0;
-        for (std::size_t i = first[f].second; i < end; ++i) err = std::max(err, memo[centre_qs[i]]);
-        if (!(err > opt.tolerance)) continue;
-        const KdTree::Node& node = tree.node(first[f].first);
-        const IPoint c = centre_of(node, K);
-        for (int d = 0; d < K; ++d) {
-          if (node.level[d] >= opt.max_level) continue;
-          IPoint a = c, b = c;
-          a[d] = node.box.lo[d];
-          b[d] = node.box.hi[d];
-          bool oka = false, okb = false;
-          AdaptiveProblem::ErrorQuery q;
-          q.midpoint = true;
-          q.at = rows.row(c);
-          q.terms = {rows.row(a, &oka), rows.row(b, &okb)};
-          if (oka && okb) qs.push_back(std::move(q));
-        }
+        for (std::size_t i = first[l]; i < first[l + 1]; ++i) err = std::max(err, out[i]);
+        if (err > opt.tolerance) above.emplace_back(leaves[l], err);
+      }
+      for (std::size_t i = 0; i < qs.size(); ++i) memo.emplace(std::move(qs[i]), out[i]);
+      qs.clear();
+      // Split directions of the elements above tolerance.
+      for (const auto& [leaf, err] : above) {
+        const KdTree::Node& node = tree.node(leaf);
+        Query q;
+        for (int d = 0; d < K; ++d)
+          if (node.level[d] < opt.max_level && midpoint_query(node, d, q)) qs.push_back(q);
       }
       solve(qs);
     }
@@ -317,26 +343,7 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
       if (!feasible) {
         if (opt.refine_infeasible) dir = widest;
       } else {
-        term_rows.clear();
-        for (int k : eb.terms) term_rows.push_back(rows.row(basis.sample(k)));
-        psi.resize(eb.terms.size());
-        // Error of the interpolant against the host at a grid point of the element.
-        auto error_at = [&](const IPoint& p, int prow) {
-          double u[kMaxDim];
-          for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
-          eval_element_basis(basis, eb, u, psi.data(), nullptr);
-          AdaptiveProblem::ErrorQuery q;
-          q.at = prow;
-          q.centre = crow;
-          q.terms = term_rows;
-          q.psi = psi;
-          const auto it = memo.find(q);
-          return it != memo.end()
-                     ? it->second
-                     : problem.interpolation_error(prow, crow, term_rows.data(), psi.data(),
-                                                   static_cast<int>(term_rows.size()));
-        };
-        err = error_at(c, crow);
+        err = answer(error_query(eb, crow, c, crow));
         if (opt.check_face_centres) {
           std::vector<IPoint> faces;
           face_centres(node, faces);
@@ -344,27 +351,17 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
             if (!std::isfinite(err)) break;
             bool ok = false;
             const int prow = rows.row(p, &ok);
-            err = ok ? std::max(err, error_at(p, prow)) : std::numeric_limits<double>::infinity();
+            err = ok ? std::max(err, answer(error_query(eb, crow, p, prow)))
+                     : std::numeric_limits<double>::infinity();
           }
         }
         if (err > opt.tolerance && widest >= 0) {
           double best = -1.0;
           for (int d = 0; d < K; ++d) {
             if (node.level[d] >= opt.max_level) continue;
-            IPoint a = c, b = c;
-            a[d] = node.box.lo[d];
-            b[d] = node.box.hi[d];
-            bool oka = false, okb = false;
-            const int ra = rows.row(a, &oka), rb = rows.row(b, &okb);
-            double e = std::numeric_limits<double>::infinity();
-            if (oka && okb) {
-              AdaptiveProblem::ErrorQuery q;
-              q.midpoint = true;
-              q.at = crow;
-              q.terms = {ra, rb};
-              const auto it = memo.find(q);
-              e = it != memo.end() ? it->second : problem.midpoint_error(ra, rb, crow);
-            }
+            Query q;
+            const double e =
+                midpoint_query(node, d, q) ? answer(q) : std::numeric_limits<double>::infinity();
             // Ties go to the coarser direction, then to the lower index.
             if (e > best || (e == best && node.level[d] < node.level[dir])) {
               best = e;
@@ -430,14 +427,7 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
     double& err = res.leaf_error[static_cast<std::size_t>(leaf)];
     const ElementBasis eb = basis.element_basis(leaf);
     if (!std::isnan(err) || !ok || !terms_feasible(eb)) continue;
-    term_rows.clear();
-    for (int k : eb.terms) term_rows.push_back(rows.row(basis.sample(k)));
-    psi.resize(eb.terms.size());
-    double u[kMaxDim];
-    for (int d = 0; d < K; ++d) u[d] = to_unit(c[d]);
-    eval_element_basis(basis, eb, u, psi.data(), nullptr);
-    err = problem.interpolation_error(crow, crow, term_rows.data(), psi.data(),
-                                      static_cast<int>(term_rows.size()));
+    err = answer(error_query(eb, crow, c, crow));
   }
   res.sample_row.resize(static_cast<std::size_t>(basis.sample_count()));
   for (int k = 0; k < basis.sample_count(); ++k)
