@@ -39,12 +39,21 @@ endif()
 if(CADINTERP_BUILD_BENCHMARKS)
   cadinterp_add_benchmark(runtime_bench ${CMAKE_CURRENT_LIST_DIR}/runtime_bench.cpp
     LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
+  # Compiles blend_multi.cpp in as well, for the per-ISA kernels the library keeps hidden.
+  cadinterp_add_benchmark(runtime_scale_bench ${CMAKE_CURRENT_LIST_DIR}/runtime_scale_bench.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/blend_multi.cpp
+    LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
 endif()
 
-# libFuzzer target (clang only): configure with -DCADINTERP_FUZZ=ON (scripts/fuzz.sh does).
+# libFuzzer targets (clang only): configure with -DCADINTERP_FUZZ=ON (scripts/fuzz.sh does).
 if(CADINTERP_FUZZ)
   add_executable(fuzz_open_eval ${CMAKE_CURRENT_LIST_DIR}/fuzz_open_eval.cpp)
   # Links the format library too, for the generated index accessors (checksum fix-up).
   target_link_libraries(fuzz_open_eval PRIVATE cadinterp cadinterp_format PkgConfig::XXHASH)
   target_link_options(fuzz_open_eval PRIVATE -fsanitize=fuzzer)
+  # Every query and evaluation entry point, with invariant checks on the results.
+  add_executable(fuzz_api ${CMAKE_CURRENT_LIST_DIR}/fuzz_api.cpp)
+  target_link_libraries(fuzz_api PRIVATE cadinterp cadinterp_format PkgConfig::XXHASH
+    cadinterp_warnings)
+  target_link_options(fuzz_api PRIVATE -fsanitize=fuzzer)
 endif()
