@@ -7,11 +7,13 @@
 #include <xxhash.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <exception>
 #include <limits>
 #include <thread>
+#include <tuple>
 
 #include "cadinterp_generated.h"
 #include "format/codec.h"
@@ -54,10 +56,14 @@ const char* status_name(Status s) {
   return "unknown status";
 }
 
+std::size_t Topology::bytes() const {
+  return (tets.size() + triangles.size()) * sizeof(std::uint32_t) +
+         triangle_tags.size() * sizeof(std::int32_t);
+}
+
 std::size_t DecodedElement::bytes() const {
-  std::size_t b = (tets.size() + triangles.size() + triangle_tags.size() + canonical.size()) * 4;
-  for (const auto& a : positions) b += a.size() * 4;
-  for (const auto& a : fields) b += a.size() * 4;
+  std::size_t b = canonical.size() * sizeof(float);
+  for (const auto& a : positions) b += a.size() * sizeof(float);
   return b;
 }
 
@@ -91,6 +97,79 @@ std::vector<T> to_vector(const flatbuffers::Vector<U>* v) {
   return out;
 }
 
+// Runs task(i) for every i in [0, n) on up to `threads` threads, the caller's included. Each
+// thread takes the next untaken task when it finishes one, so tasks of uneven cost (a tet blob
+// beside position blobs, or 8 terms on 3 threads) still balance to within one task. After a
+// failure no new task starts; the error rethrown is that of the lowest failing index, the one a
+// serial run would report, so the status does not depend on scheduling.
+template <class F>
+void run_tasks(std::size_t n, std::size_t threads, const F& task) {
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex error_mu;
+  std::size_t error_index = n;
+  std::exception_ptr error;
+  auto worker = [&] {
+    while (!failed.load(std::memory_order_relaxed)) {
+      const std::size_t i = next.fetch_add(1, std::memory_order_relaxed);
+      if (i >= n) return;
+      try {
+        task(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mu);
+        if (i < error_index) {
+          error_index = i;
+          error = std::current_exception();
+        }
+        failed.store(true, std::memory_order_relaxed);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  try {
+    pool.reserve(threads > 1 ? threads - 1 : 0);
+    for (std::size_t t = 1; t < std::min(threads, n); ++t) pool.emplace_back(worker);
+  } catch (...) {
+    // No thread (or no memory for one): the threads already started and this one do the work.
+  }
+  worker();
+  for (auto& th : pool) th.join();
+  if (error) std::rethrow_exception(error);
+}
+
+// Threads for decoding `values` 4-byte values: one below a few hundred thousand, where starting
+// threads (tens of microseconds each) costs more than it saves.
+std::size_t decode_threads(std::uint64_t values) {
+  if (values < (std::uint64_t(1) << 18)) return 1;
+  return std::max(1u, std::thread::hardware_concurrency());
+}
+
+Codec codec_of(const fb::BlobRef* r) { return static_cast<Codec>(r->codec()); }
+
+// An array of n floats: the spare with the smallest sufficient capacity if there is one (its
+// pages are mapped already), else a new allocation. Values are left as they are: the caller
+// overwrites all of them.
+DecodedArray<float> take_array(SpareArrays* spare, std::size_t n) {
+  DecodedArray<float> a;
+  if (spare) {
+    auto best = spare->end();
+    for (auto it = spare->begin(); it != spare->end(); ++it)
+      if (it->capacity() >= n && (best == spare->end() || it->capacity() < best->capacity()))
+        best = it;
+    if (best != spare->end()) {
+      a = std::move(*best);
+      spare->erase(best);
+    }
+  }
+  a.resize(n);
+  return a;
+}
+
+[[noreturn]] void non_finite(int e, const char* what) {
+  throw FormatError(Status::CorruptBlob,
+                    "element " + std::to_string(e) + ": non-finite values in a " + what + " blob");
+}
+
 }  // namespace
 
 AssetReader::~AssetReader() {
@@ -114,6 +193,10 @@ std::unique_ptr<AssetReader> AssetReader::open_file(const std::string& path,
       ::close(fd);
       throw FormatError(Status::Io, "cannot map " + path + ": " + std::strerror(errno));
     }
+    // Open reads a few pages (header, index) and decoding reads one element's blobs: the
+    // kernel's default read-ahead (8 MB on some disks) made the first fault of a cold open
+    // cost ~4 ms. Blobs ask for their own pages (blob()).
+    ::madvise(m, static_cast<std::size_t>(r->size_), MADV_RANDOM);
     r->map_ = m;
     r->data_ = static_cast<const std::uint8_t*>(m);
   }
@@ -169,6 +252,10 @@ void AssetReader::open(const ReadLimits& limits) {
     throw FormatError(Status::OutOfRange, "index outside the file");
   if (index_size > std::numeric_limits<std::uint32_t>::max() / 2)
     throw FormatError(Status::LimitExceeded, "index larger than 2 GB");
+  // A FlatBuffer has at least its root offset and file identifier (8 bytes); the identifier
+  // check below reads them before the verifier runs (found by fuzzing: an empty index read 4
+  // bytes past the caller's buffer).
+  if (index_size < 8) corrupt("index shorter than a FlatBuffers header");
   const std::uint8_t* index = data_ + index_offset;
   if (XXH64(index, static_cast<std::size_t>(index_size), 0) != index_hash)
     throw FormatError(Status::ChecksumMismatch, "index checksum mismatch");
@@ -220,6 +307,29 @@ void AssetReader::open(const ReadLimits& limits) {
     corrupt(e.what());
   }
 
+  // Text: the C ABI hands strings out NUL-terminated, so an embedded NUL would make a name
+  // read back differently from what cadinterp_find_field compares (found by fuzzing).
+  auto text = [](const flatbuffers::String* str, const char* what) {
+    if (str && std::memchr(str->data(), '\0', str->size()))
+      corrupt(std::string(what) + " contains a NUL character");
+  };
+  for (const fb::Parameter* prm : *params) {
+    text(prm->name(), "parameter name");
+    text(prm->unit(), "parameter unit");
+  }
+  if (const auto* fields = index_->fields())
+    for (const fb::FieldDesc* f : *fields) text(f->name(), "field name");
+  if (const auto* regions = index_->regions())
+    for (const fb::BoundaryRegion* r : *regions) {
+      text(r->name(), "region name");
+      text(r->kind(), "region kind");
+    }
+  if (const fb::Provenance* pv = index_->provenance()) {
+    text(pv->builder_version(), "builder version");
+    text(pv->host(), "host name");
+    text(pv->options(), "build options");
+  }
+
   // Fields.
   if (const auto* fields = index_->fields())
     for (const fb::FieldDesc* f : *fields) {
@@ -238,19 +348,29 @@ void AssetReader::open(const ReadLimits& limits) {
   if (static_cast<int>(elems->size()) != basis_.element_count()) corrupt("element count");
   blobs_ = index_offset + index_size;
   const std::uint64_t section = file_size - blobs_;
-  std::vector<std::pair<std::uint64_t, std::uint64_t>> extents;  // (offset, size)
+  struct Extent {
+    std::uint64_t offset, size, checksum;
+    std::uint8_t codec;
+    auto tie() const { return std::tie(offset, size, checksum, codec); }
+    bool operator<(const Extent& o) const { return tie() < o.tie(); }
+    bool operator==(const Extent& o) const { return tie() == o.tie(); }
+  };
+  std::vector<Extent> extents;
   auto check_ref = [&](const fb::BlobRef* r, const char* what) {
     if (!r) corrupt(std::string("missing ") + what + " blob");
     if (!codec_is_known(static_cast<std::uint8_t>(r->codec())))
       corrupt(std::string("unknown codec of a ") + what + " blob");
     if (r->size() > section || r->offset() > section - r->size())
       throw FormatError(Status::OutOfRange, std::string(what) + " blob outside the file");
-    extents.emplace_back(r->offset(), r->size());
+    extents.push_back(
+        {r->offset(), r->size(), r->checksum(), static_cast<std::uint8_t>(r->codec())});
   };
   for (int e = 0; e < basis_.element_count(); ++e) {
     const fb::ElementMeshes* m = elems->Get(static_cast<flatbuffers::uoffset_t>(e));
     int terms = 0;
     basis_.element_samples(e, &terms);
+    // Before the infeasible-element shortcut: error_estimate answers for every element.
+    if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
     if (m->vertex_count() == 0) {
       if (basis_.element_feasible(e)) corrupt("feasible element without meshes");
       continue;
@@ -284,19 +404,22 @@ void AssetReader::open(const ReadLimits& limits) {
     if (m->fields())
       for (const fb::BlobRef* r : *m->fields()) check_ref(r, "fields");
     std::uint64_t stored = 0;
-    for (std::size_t i = first_extent; i < extents.size(); ++i) stored += extents[i].second;
+    for (std::size_t i = first_extent; i < extents.size(); ++i) stored += extents[i].size;
     if (decoded / limits_.max_expansion > stored + 4096)
       throw FormatError(Status::LimitExceeded,
                         "element " + std::to_string(e) + " claims " + std::to_string(decoded) +
                             " decoded bytes from " + std::to_string(stored) + " stored bytes");
-    if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
   }
   // The blobs tile the blob section exactly: no byte of the file escapes every checksum.
+  // Identical references (all four fields equal) name one shared blob (SPEC.md, "Layout"); any
+  // other overlap is corruption. Sorting puts identical references side by side.
   std::sort(extents.begin(), extents.end());
   std::uint64_t end = 0;
-  for (const auto& [offset, n] : extents) {
-    if (offset != end) corrupt("blob section has a gap or an overlap");
-    end = offset + n;
+  for (std::size_t i = 0; i < extents.size(); ++i) {
+    const Extent& x = extents[i];
+    if (i > 0 && x == extents[i - 1]) continue;
+    if (x.offset != end) corrupt("blob section has a gap or an overlap");
+    end = x.offset + x.size;
   }
   if (end != section) corrupt("blob section has unreferenced bytes");
 }
@@ -305,6 +428,12 @@ AssetReader::Bytes AssetReader::blob(const void* ref) const {
   const auto* r = static_cast<const fb::BlobRef*>(ref);
   const std::uint8_t* p = data_ + blobs_ + r->offset();
   const auto n = static_cast<std::size_t>(r->size());
+  if (map_ && n > 0) {  // read the blob's pages ahead in one go (see open_file: MADV_RANDOM)
+    const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
+    const std::uintptr_t first = reinterpret_cast<std::uintptr_t>(p) & ~(page - 1);
+    ::madvise(reinterpret_cast<void*>(first), reinterpret_cast<std::uintptr_t>(p) + n - first,
+              MADV_WILLNEED);
+  }
   if (XXH64(p, n, 0) != r->checksum())
     throw FormatError(Status::ChecksumMismatch,
                       "blob at offset " + std::to_string(r->offset()) + ": checksum mismatch");
@@ -313,94 +442,177 @@ AssetReader::Bytes AssetReader::blob(const void* ref) const {
   return {p, n};
 }
 
-DecodedElement AssetReader::decode_element(int e) const {
+AssetReader::TopologyKey AssetReader::topology_key(int e) const {
+  const fb::ElementMeshes* m = index_->elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+  TopologyKey k{};
+  std::size_t at = 0;
+  for (const fb::BlobRef* r : {m->tets(), m->triangles(), m->triangle_tags()}) {
+    k[at++] = r->offset();
+    k[at++] = r->size();
+    k[at++] = r->checksum();
+    k[at++] = static_cast<std::uint64_t>(r->codec());
+  }
+  k[at++] = m->vertex_count();
+  k[at++] = m->tet_count();
+  k[at] = m->triangle_count();
+  return k;
+}
+
+std::shared_ptr<const Topology> AssetReader::find_topology(const TopologyKey& key) const {
+  std::lock_guard<std::mutex> lock(topologies_mu_);
+  const auto it = topologies_.find(key);
+  return it == topologies_.end() ? nullptr : it->second.lock();
+}
+
+std::shared_ptr<const Topology> AssetReader::remember_topology(
+    const TopologyKey& key, std::shared_ptr<const Topology> t) const {
+  std::lock_guard<std::mutex> lock(topologies_mu_);
+  // Entries whose topology every holder released go here: the table stays as small as the set of
+  // topologies alive.
+  for (auto it = topologies_.begin(); it != topologies_.end();)
+    it = it->second.expired() ? topologies_.erase(it) : std::next(it);
+  std::weak_ptr<const Topology>& slot = topologies_[key];
+  // Another thread may have decoded the same topology meanwhile: the first one stays, so that
+  // every holder shares it.
+  if (auto live = slot.lock()) return live;
+  slot = t;
+  return t;
+}
+
+namespace {
+
+// Decodes part `part` (0 tets, 1 triangles, 2 triangle tags) of a topology into `t`, whose arrays
+// are already sized.
+template <class BlobFn>
+void decode_topology_part(const fb::ElementMeshes* m, int part, const BlobFn& blob, Topology& t) {
+  const std::uint32_t nv = m->vertex_count();
+  if (part == 0) {
+    const auto b = blob(m->tets());
+    decode_indices(codec_of(m->tets()), b.data, b.size, m->tet_count(), 4, nv, t.tets.data());
+  } else if (part == 1) {
+    const auto b = blob(m->triangles());
+    decode_indices(codec_of(m->triangles()), b.data, b.size, m->triangle_count(), 3, nv,
+                   t.triangles.data());
+  } else {
+    const auto b = blob(m->triangle_tags());
+    if (codec_of(m->triangle_tags()) != Codec::Raw ||
+        b.size != std::size_t(m->triangle_count()) * 4)
+      throw CodecError(CodecError::Kind::Corrupt, "triangle tags blob");
+    if (b.size) std::memcpy(t.triangle_tags.data(), b.data, b.size);
+  }
+}
+
+std::shared_ptr<Topology> sized_topology(const fb::ElementMeshes* m) {
+  auto t = std::make_shared<Topology>();
+  t->tets.resize(std::size_t(m->tet_count()) * 4);
+  t->triangles.resize(std::size_t(m->triangle_count()) * 3);
+  t->triangle_tags.resize(m->triangle_count());
+  return t;
+}
+
+[[noreturn]] void corrupt_blob(int e, const CodecError& err) {
+  throw FormatError(Status::CorruptBlob,
+                    std::string("element ") + std::to_string(e) + ": " + err.what());
+}
+
+}  // namespace
+
+std::shared_ptr<const Topology> AssetReader::decode_topology(int e) const {
+  if (e < 0 || e >= basis_.element_count())
+    throw FormatError(Status::InvalidArgument, "element index out of range");
+  const fb::ElementMeshes* m = index_->elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+  if (m->vertex_count() == 0) return nullptr;
+  const TopologyKey key = topology_key(e);
+  if (auto live = find_topology(key)) return live;
+  const std::shared_ptr<Topology> t = sized_topology(m);
+  auto blob_fn = [this](const fb::BlobRef* r) { return blob(r); };
+  try {
+    for (int part = 0; part < 3; ++part) decode_topology_part(m, part, blob_fn, *t);
+  } catch (const CodecError& err) {
+    corrupt_blob(e, err);
+  }
+  return remember_topology(key, t);
+}
+
+DecodedElement AssetReader::decode_element(int e, SpareArrays* spare) const {
   if (e < 0 || e >= basis_.element_count())
     throw FormatError(Status::InvalidArgument, "element index out of range");
   const fb::ElementMeshes* m = index_->elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
   DecodedElement d;
   d.vertex_count = m->vertex_count();
   if (d.vertex_count == 0) return d;
-  const std::size_t nv = d.vertex_count, ntet = m->tet_count(), ntri = m->triangle_count();
-  auto codec = [](const fb::BlobRef* r) { return static_cast<Codec>(r->codec()); };
+  const std::size_t nv = d.vertex_count;
+  const std::size_t terms = m->positions()->size();
   try {
-    Bytes bytes = blob(m->tets());
-    d.tets.resize(ntet * 4);
-    decode_indices(codec(m->tets()), bytes.data, bytes.size, ntet, 4, d.vertex_count,
-                   d.tets.data());
-    bytes = blob(m->triangles());
-    d.triangles.resize(ntri * 3);
-    decode_indices(codec(m->triangles()), bytes.data, bytes.size, ntri, 3, d.vertex_count,
-                   d.triangles.data());
-    bytes = blob(m->triangle_tags());
-    if (codec(m->triangle_tags()) != Codec::Raw || bytes.size != ntri * 4)
-      throw FormatError(Status::CorruptBlob, "triangle tags blob");
-    d.triangle_tags.resize(ntri);
-    if (ntri) std::memcpy(d.triangle_tags.data(), bytes.data, bytes.size);
-    bytes = blob(m->canonical_positions());
-    d.canonical.resize(nv * 3);
-    decode_floats(codec(m->canonical_positions()), bytes.data, bytes.size, nv, 3, nullptr,
-                  d.canonical.data());
-    // The per-term arrays dominate (terms x #V x 3 floats, plus fields): decoded by up to
-    // hardware_concurrency threads, each a stride of the terms, when the element is large.
-    const std::size_t terms = m->positions()->size();
-    const std::size_t nf = nv * per_vertex_ + ntet * per_tet_;
-    const bool has_fields = m->fields() != nullptr && m->fields()->size() > 0;
-    d.positions.assign(terms, std::vector<float>(nv * 3));
-    if (has_fields) d.fields.assign(terms, std::vector<float>(nf));
-    auto decode_terms = [&](std::size_t first, std::size_t step) {
-      for (std::size_t t = first; t < terms; t += step) {
-        const fb::BlobRef* r = m->positions()->Get(static_cast<flatbuffers::uoffset_t>(t));
-        const Bytes pb = blob(r);
-        decode_floats(codec(r), pb.data, pb.size, nv, 3, d.canonical.data(), d.positions[t].data());
-        if (!has_fields) continue;
-        const fb::BlobRef* f = m->fields()->Get(static_cast<flatbuffers::uoffset_t>(t));
-        const Bytes fb = blob(f);
-        decode_floats(codec(f), fb.data, fb.size, nf, 1, nullptr, d.fields[t].data());
+    // The canonical array first: position blobs may be coded against it, and a lossy decode is
+    // finite by construction only with a finite reference.
+    const Bytes cb = blob(m->canonical_positions());
+    d.canonical = take_array(spare, nv * 3);
+    if (!decode_floats_finite(codec_of(m->canonical_positions()), cb.data, cb.size, nv, 3, nullptr,
+                              d.canonical.data()))
+      non_finite(e, "canonical positions");
+
+    // A topology still held by another element (the neighbour a cell switch leaves) is reused;
+    // otherwise its three blobs are decoded alongside the positions, as tasks of the same pool.
+    const TopologyKey key = topology_key(e);
+    std::shared_ptr<const Topology> shared = find_topology(key);
+    std::shared_ptr<Topology> fresh;
+    if (!shared) fresh = sized_topology(m);
+    // Buffers are allocated here and first written by the decoding threads, so the page faults
+    // of fresh memory are taken in parallel too.
+    d.positions.reserve(terms);
+    for (std::size_t t = 0; t < terms; ++t) d.positions.push_back(take_array(spare, nv * 3));
+    // Task order: the tet blob first (the largest single task: started first, it balances best),
+    // then one task per term, then the small triangle and tag blobs.
+    const std::size_t topo_tasks = fresh ? 3 : 0;
+    auto blob_fn = [this](const fb::BlobRef* r) { return blob(r); };
+    auto task = [&](std::size_t i) {
+      const std::size_t t = fresh ? i - 1 : i;  // term, if < terms
+      if (fresh && (i == 0 || t >= terms)) {
+        decode_topology_part(m, i == 0 ? 0 : static_cast<int>(t - terms + 1), blob_fn, *fresh);
+        return;
       }
+      const fb::BlobRef* r = m->positions()->Get(static_cast<flatbuffers::uoffset_t>(t));
+      const Bytes pb = blob(r);
+      if (!decode_floats_finite(codec_of(r), pb.data, pb.size, nv, 3, d.canonical.data(),
+                                d.positions[t].data()))
+        non_finite(e, "positions");
     };
-    const std::size_t work = terms * (nv * 3 + nf);
-    const std::size_t threads =
-        work < (1u << 20)
-            ? 1
-            : std::min<std::size_t>(terms, std::max(1u, std::thread::hardware_concurrency()));
-    if (threads <= 1) {
-      decode_terms(0, 1);
-    } else {
-      std::vector<std::exception_ptr> errors(threads);
-      std::vector<std::thread> pool;
-      for (std::size_t i = 1; i < threads; ++i)
-        pool.emplace_back([&, i] {
-          try {
-            decode_terms(i, threads);
-          } catch (...) {
-            errors[i] = std::current_exception();
-          }
-        });
-      try {
-        decode_terms(0, threads);
-      } catch (...) {
-        errors[0] = std::current_exception();
-      }
-      for (auto& th : pool) th.join();
-      for (const auto& err : errors)
-        if (err) std::rethrow_exception(err);
-    }
+    const std::uint64_t values =
+        std::uint64_t(terms) * nv * 3 +
+        (fresh ? std::uint64_t(m->tet_count()) * 4 + std::uint64_t(m->triangle_count()) * 4 : 0);
+    run_tasks(terms + topo_tasks, decode_threads(values), task);
+    d.topology = fresh ? remember_topology(key, std::move(fresh)) : std::move(shared);
   } catch (const CodecError& err) {
-    throw FormatError(Status::CorruptBlob,
-                      std::string("element ") + std::to_string(e) + ": " + err.what());
+    corrupt_blob(e, err);
   }
-  // Post-decode checks: values are finite (a lossless codec passes any bit pattern through).
-  auto finite = [](const std::vector<float>& a) {
-    for (float v : a)
-      if (!std::isfinite(v)) return false;
-    return true;
-  };
-  bool ok = finite(d.canonical);
-  for (const auto& a : d.positions) ok = ok && finite(a);
-  for (const auto& a : d.fields) ok = ok && finite(a);
-  if (!ok)
-    throw FormatError(Status::CorruptBlob, "element " + std::to_string(e) + ": non-finite values");
   return d;
+}
+
+std::vector<DecodedArray<float>> AssetReader::decode_fields(int e, SpareArrays* spare) const {
+  if (e < 0 || e >= basis_.element_count())
+    throw FormatError(Status::InvalidArgument, "element index out of range");
+  const fb::ElementMeshes* m = index_->elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+  std::vector<DecodedArray<float>> fields;
+  if (m->vertex_count() == 0 || !m->fields() || m->fields()->size() == 0) return fields;
+  const std::size_t nf =
+      std::size_t(m->vertex_count()) * per_vertex_ + std::size_t(m->tet_count()) * per_tet_;
+  const std::size_t terms = m->fields()->size();
+  fields.reserve(terms);
+  for (std::size_t t = 0; t < terms; ++t) fields.push_back(take_array(spare, nf));
+  try {
+    run_tasks(terms, decode_threads(std::uint64_t(terms) * nf), [&](std::size_t t) {
+      const fb::BlobRef* r = m->fields()->Get(static_cast<flatbuffers::uoffset_t>(t));
+      const Bytes fb = blob(r);
+      // Field blobs are coded without a reference (asset_writer.cpp); one that claims a reference
+      // fails with InvalidArgument, reported as a corrupt blob below.
+      if (!decode_floats_finite(codec_of(r), fb.data, fb.size, nf, 1, nullptr, fields[t].data()))
+        non_finite(e, "field");
+    });
+  } catch (const CodecError& err) {
+    corrupt_blob(e, err);
+  }
+  return fields;
 }
 
 }  // namespace cadinterp::format

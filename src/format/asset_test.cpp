@@ -1,14 +1,18 @@
 #include <gtest/gtest.h>
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <random>
+#include <set>
 
 #include "cadinterp_generated.h"
 #include "format/asset_reader.h"
@@ -40,15 +44,70 @@ std::vector<std::uint8_t> small_file(Codec codec = Codec::QuantDeltaZstd, double
   return write_asset(small_asset().content, o);
 }
 
-// Opens and decodes everything; returns the first error's status (Ok if none).
+// Element-wise equality of a decoded array and the written one.
+template <class A, class B>
+bool same(const A& a, const B& b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end());
+}
+template <class A, class B>
+bool same_terms(const std::vector<A>& a, const std::vector<B>& b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(),
+                    [](const A& x, const B& y) { return same(x, y); });
+}
+
+// Opens and decodes everything (meshes and fields); returns the first error's status (Ok if
+// none).
 Status open_and_decode(const std::vector<std::uint8_t>& bytes) {
   try {
     const auto r = AssetReader::open_memory(bytes.data(), bytes.size(), false);
-    for (int e = 0; e < r->basis().element_count(); ++e) r->decode_element(e);
+    for (int e = 0; e < r->basis().element_count(); ++e) {
+      r->decode_element(e);
+      r->decode_fields(e);
+    }
     return Status::Ok;
   } catch (const FormatError& err) {
     return err.status;
   }
+}
+
+template <class F>
+Status status_of(F&& f) {
+  try {
+    f();
+    return Status::Ok;
+  } catch (const FormatError& err) {
+    return err.status;
+  }
+}
+
+// Rewrites the index checksum after an in-place index edit.
+void rehash(std::vector<std::uint8_t>& b) {
+  std::uint64_t n = 0;
+  for (int i = 7; i >= 0; --i) n = (n << 8) | b[static_cast<std::size_t>(32 + i)];
+  const std::uint64_t h = XXH64(b.data() + kHeaderSize, static_cast<std::size_t>(n), 0);
+  for (int i = 0; i < 8; ++i)
+    b[static_cast<std::size_t>(40 + i)] = static_cast<std::uint8_t>(h >> (8 * i));
+}
+
+std::uint64_t blob_section(const std::vector<std::uint8_t>& b) {
+  std::uint64_t n = 0;
+  for (int i = 7; i >= 0; --i) n = (n << 8) | b[static_cast<std::size_t>(32 + i)];
+  return kHeaderSize + n;
+}
+
+fb::ElementMeshes* element_of(std::vector<std::uint8_t>& b, int e) {
+  return fb::GetMutableAsset(b.data() + kHeaderSize)
+      ->mutable_elements()
+      ->GetMutableObject(static_cast<flatbuffers::uoffset_t>(e));
+}
+
+// Feasible elements of the small asset.
+std::vector<int> feasible_elements(const AssetReader& r) {
+  std::vector<int> out;
+  for (int e = 0; e < r.basis().element_count(); ++e)
+    if (r.index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e))->vertex_count() > 0)
+      out.push_back(e);
+  return out;
 }
 
 Status open_status(const std::vector<std::uint8_t>& bytes) {
@@ -82,12 +141,13 @@ TEST(Asset, RoundTripsLosslessWithEveryCodec) {
       const DecodedElement d = r->decode_element(e);
       const ElementData& w = a.content.elements[static_cast<std::size_t>(e)];
       ASSERT_EQ(d.vertex_count, w.vertex_count);
-      EXPECT_EQ(d.tets, w.tets);
-      EXPECT_EQ(d.triangles, w.triangles);
-      EXPECT_EQ(d.triangle_tags, w.triangle_tags);
-      EXPECT_EQ(d.canonical, w.canonical);
-      EXPECT_EQ(d.positions, w.positions);
-      EXPECT_EQ(d.fields, w.fields);
+      ASSERT_TRUE(d.topology);
+      EXPECT_TRUE(same(d.topology->tets, w.tets));
+      EXPECT_TRUE(same(d.topology->triangles, w.triangles));
+      EXPECT_TRUE(same(d.topology->triangle_tags, w.triangle_tags));
+      EXPECT_TRUE(same(d.canonical, w.canonical));
+      EXPECT_TRUE(same_terms(d.positions, w.positions));
+      EXPECT_TRUE(same_terms(r->decode_fields(e), w.fields));
     }
   }
 }
@@ -120,7 +180,8 @@ TEST(Asset, OpensFromAFileByMappingIt) {
   std::fclose(f);
   const auto r = AssetReader::open_file(path);
   EXPECT_EQ(r->file_size(), bytes.size());
-  EXPECT_EQ(r->decode_element(0).positions, small_asset().content.elements[0].positions);
+  EXPECT_TRUE(
+      same_terms(r->decode_element(0).positions, small_asset().content.elements[0].positions));
   try {
     AssetReader::open_file(path + ".missing");
     FAIL() << "opened a missing file";
@@ -215,6 +276,241 @@ TEST(Asset, EveryBitFlipIsReported) {
     std::printf("[ figures ] bit flips -> %s: %d\n", status_name(s), n);
 }
 
+// The synthetic mesh never changes combinatorics: every element's topology blobs are the same
+// blobs, stored once, and decoded elements alive at the same time share one Topology.
+TEST(Asset, SharedTopologyRoundTripsWithEveryCodec) {
+  const SyntheticAsset& a = small_asset();
+  for (Codec codec : {Codec::Raw, Codec::QuantDeltaZstd, Codec::Meshopt, Codec::Draco}) {
+    SCOPED_TRACE(codec_name(codec));
+    const std::vector<std::uint8_t> bytes = small_file(codec);
+    const auto r = AssetReader::open_memory(bytes.data(), bytes.size(), false);
+    const std::vector<int> elems = feasible_elements(*r);
+    ASSERT_GE(elems.size(), 2u);
+    const fb::ElementMeshes* first = r->index().elements()->Get(0);
+    for (int e : elems) {
+      const fb::ElementMeshes* m =
+          r->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+      for (auto [x, y] : {std::pair{m->tets(), first->tets()},
+                          {m->triangles(), first->triangles()},
+                          {m->triangle_tags(), first->triangle_tags()}}) {
+        EXPECT_EQ(x->offset(), y->offset());
+        EXPECT_EQ(x->size(), y->size());
+        EXPECT_EQ(x->checksum(), y->checksum());
+        EXPECT_EQ(x->codec(), y->codec());
+      }
+    }
+    std::vector<DecodedElement> alive;
+    for (int e : elems) {
+      alive.push_back(r->decode_element(e));
+      const ElementData& w = a.content.elements[static_cast<std::size_t>(e)];
+      EXPECT_EQ(alive.back().topology, alive.front().topology) << "element " << e;
+      EXPECT_TRUE(same(alive.back().topology->tets, w.tets));
+      EXPECT_TRUE(same(alive.back().topology->triangles, w.triangles));
+      EXPECT_TRUE(same(alive.back().topology->triangle_tags, w.triangle_tags));
+      EXPECT_TRUE(same_terms(alive.back().positions, w.positions));
+    }
+    EXPECT_EQ(r->decode_topology(elems.back()), alive.front().topology);
+    // Once released, the topology is decoded anew (the reader does not own it), with equal values.
+    const Topology* old = alive.front().topology.get();
+    const std::vector<std::uint32_t> tets(old->tets.begin(), old->tets.end());
+    alive.clear();
+    const DecodedElement again = r->decode_element(elems.front());
+    EXPECT_TRUE(same(again.topology->tets, tets));
+  }
+}
+
+// Stored once: the file is smaller than the sum of its references by the shared copies.
+TEST(Asset, WriterStoresIdenticalBlobsOnce) {
+  const std::vector<std::uint8_t> bytes = small_file();
+  const auto r = AssetReader::open_memory(bytes.data(), bytes.size(), false);
+  std::set<std::uint64_t> offsets;
+  std::uint64_t referenced = 0, distinct = 0;
+  for (int e : feasible_elements(*r)) {
+    const fb::ElementMeshes* m = r->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+    std::vector<const fb::BlobRef*> refs = {m->tets(), m->triangles(), m->triangle_tags(),
+                                            m->canonical_positions()};
+    refs.insert(refs.end(), m->positions()->begin(), m->positions()->end());
+    refs.insert(refs.end(), m->fields()->begin(), m->fields()->end());
+    for (const fb::BlobRef* x : refs) {
+      referenced += x->size();
+      if (offsets.insert(x->offset()).second) distinct += x->size();
+    }
+  }
+  EXPECT_EQ(distinct, bytes.size() - blob_section(bytes));
+  const fb::ElementMeshes* m0 = r->index().elements()->Get(0);
+  const std::size_t elements = feasible_elements(*r).size();
+  EXPECT_GE(referenced - distinct, (elements - 1) * (m0->tets()->size() + m0->triangles()->size()));
+  std::printf("[ figures ] %zu elements: %llu blob bytes referenced, %llu stored\n", elements,
+              static_cast<unsigned long long>(referenced),
+              static_cast<unsigned long long>(distinct));
+}
+
+// Identical references share a blob; any other overlap and any orphaned byte stay corruption.
+TEST(Asset, OnlyIdenticalReferencesMayOverlap) {
+  const std::vector<std::uint8_t> good = small_file();
+  ASSERT_EQ(open_and_decode(good), Status::Ok);
+  const auto r = AssetReader::open_memory(good.data(), good.size(), false);
+  const std::vector<int> elems = feasible_elements(*r);
+  const int e1 = elems[1];
+  struct Case {
+    const char* name;
+    std::function<void(std::vector<std::uint8_t>&)> mutate;
+  };
+  const Case cases[] = {
+      {"same range, other checksum",
+       [&](auto& b) {
+         auto* t = element_of(b, e1)->mutable_tets();
+         t->mutate_checksum(t->checksum() ^ 1);
+       }},
+      {"same range, other codec",
+       [&](auto& b) { element_of(b, e1)->mutable_tets()->mutate_codec(fb::Codec::Raw); }},
+      {"same offset, shorter",
+       [&](auto& b) {
+         auto* t = element_of(b, e1)->mutable_tets();
+         t->mutate_size(t->size() - 1);
+       }},
+      {"shared copy of a blob, its own bytes orphaned",
+       [&](auto& b) {
+         const fb::BlobRef* c0 = element_of(b, elems[0])->canonical_positions();
+         const fb::BlobRef copy = *c0;
+         *element_of(b, e1)->mutable_canonical_positions() = copy;
+       }},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::uint8_t> b = good;
+    c.mutate(b);
+    rehash(b);
+    EXPECT_EQ(open_status(b), Status::CorruptIndex) << c.name;
+  }
+}
+
+// A flipped byte of a blob every element shares is reported by every one of them, never served
+// from a topology decoded before.
+TEST(Asset, CorruptSharedBlobIsReportedByEveryElementUsingIt) {
+  for (Codec codec : {Codec::Raw, Codec::QuantDeltaZstd, Codec::Meshopt}) {
+    SCOPED_TRACE(codec_name(codec));
+    std::vector<std::uint8_t> b = small_file(codec);
+    const auto good = AssetReader::open_memory(b.data(), b.size(), true);
+    const std::vector<int> elems = feasible_elements(*good);
+    for (auto which : {&fb::ElementMeshes::tets, &fb::ElementMeshes::triangles,
+                       &fb::ElementMeshes::triangle_tags}) {
+      std::vector<std::uint8_t> bad = b;
+      const fb::BlobRef* ref = (good->index().elements()->Get(0)->*which)();
+      bad[blob_section(bad) + ref->offset() + ref->size() / 2] ^= 0x20;
+      const auto r = AssetReader::open_memory(bad.data(), bad.size(), false);
+      for (int e : elems) {
+        EXPECT_EQ(status_of([&] { r->decode_element(e); }), Status::ChecksumMismatch) << e;
+        EXPECT_EQ(status_of([&] { r->decode_topology(e); }), Status::ChecksumMismatch) << e;
+      }
+    }
+  }
+}
+
+// Fields are decoded apart from the meshes: a corrupt field blob fails decode_fields only.
+TEST(Asset, FieldsDecodeSeparately) {
+  std::vector<std::uint8_t> b = small_file();
+  const auto good = AssetReader::open_memory(b.data(), b.size(), true);
+  const fb::BlobRef* f = good->index().elements()->Get(0)->fields()->Get(1);
+  b[blob_section(b) + f->offset() + f->size() / 2] ^= 0x01;
+  const auto r = AssetReader::open_memory(b.data(), b.size(), false);
+  EXPECT_EQ(status_of([&] { r->decode_element(0); }), Status::Ok);
+  EXPECT_EQ(status_of([&] { r->decode_fields(0); }), Status::ChecksumMismatch);
+  EXPECT_EQ(status_of([&] { r->decode_fields(0); }), Status::ChecksumMismatch) << "not cached";
+}
+
+// Non-finite values are caught by every codec's decode (in its output loop for lossless data).
+TEST(Asset, NonFiniteValuesAreCorruptWithEveryCodec) {
+  const float bad_values[] = {std::numeric_limits<float>::quiet_NaN(),
+                              std::numeric_limits<float>::infinity(),
+                              -std::numeric_limits<float>::infinity()};
+  for (Codec codec : {Codec::Raw, Codec::QuantDeltaZstd, Codec::Meshopt, Codec::Draco}) {
+    SCOPED_TRACE(codec_name(codec));
+    for (float v : bad_values) {
+      for (int where = 0; where < 3; ++where) {  // canonical, a position array, a field array
+        AssetContent c = small_asset().content;
+        ElementData& ed = c.elements[0];
+        const std::size_t i = 3 * (ed.vertex_count / 2) + 1;
+        if (where == 0) ed.canonical[i] = v;
+        if (where == 1) ed.positions[1][i] = v;
+        if (where == 2) ed.fields[1][ed.fields[1].size() - 2] = v;
+        WriteOptions o;
+        o.float_codec = o.index_codec = codec;
+        const std::vector<std::uint8_t> bytes = write_asset(c, o);
+        const auto r = AssetReader::open_memory(bytes.data(), bytes.size(), false);
+        EXPECT_EQ(status_of([&] { r->decode_element(0); }),
+                  where < 2 ? Status::CorruptBlob : Status::Ok)
+            << where;
+        EXPECT_EQ(status_of([&] { r->decode_fields(0); }),
+                  where == 2 ? Status::CorruptBlob : Status::Ok)
+            << where;
+      }
+    }
+  }
+}
+
+// Lossy positions are finite by construction (checked step, clamped values, finite canonical):
+// the largest magnitudes the encoder accepts decode to finite values, within the bound.
+TEST(Asset, LossyExtremesDecodeFinite) {
+  for (Codec codec : {Codec::QuantDeltaZstd, Codec::Meshopt}) {
+    SCOPED_TRACE(codec_name(codec));
+    AssetContent c = small_asset().content;
+    ElementData& ed = c.elements[0];
+    ed.positions[0][0] = 0x1p126f;
+    ed.positions[0][1] = -0x1p126f;
+    ed.fields[0][0] = 0x1p126f;
+    WriteOptions o;
+    o.float_codec = o.index_codec = codec;
+    o.position_max_abs_error = o.field_max_abs_error = 0x1p100;
+    const std::vector<std::uint8_t> bytes = write_asset(c, o);
+    const auto r = AssetReader::open_memory(bytes.data(), bytes.size(), false);
+    const DecodedElement d = r->decode_element(0);
+    EXPECT_TRUE(std::isfinite(d.positions[0][0]));
+    EXPECT_NEAR(d.positions[0][0], 0x1p126, 0x1p101);
+    EXPECT_TRUE(std::isfinite(r->decode_fields(0)[0][0]));
+  }
+}
+
+// Elements large enough to be decoded by several threads (tets, positions and fields as tasks of
+// one pool): the same values as the written content, and a corrupt blob anywhere gives the status
+// a serial decode gives.
+TEST(Asset, ParallelDecodeOfALargeElement) {
+  SyntheticSpec spec;
+  spec.K = 3;
+  spec.cells[0] = 40;
+  spec.cells[1] = 20;
+  spec.cells[2] = 16;
+  spec.max_samples = 27;
+  spec.tolerance = 1e9;
+  spec.check_face_centres = false;
+  const SyntheticAsset a = make_synthetic_asset(spec);
+  const ElementData& w = a.content.elements[0];
+  ASSERT_GE(w.positions.size() * w.vertex_count * 3, std::size_t(1) << 18) << "not parallel";
+  for (Codec codec : {Codec::Raw, Codec::QuantDeltaZstd, Codec::Meshopt}) {
+    SCOPED_TRACE(codec_name(codec));
+    WriteOptions o;
+    o.float_codec = o.index_codec = codec;
+    const std::vector<std::uint8_t> bytes = write_asset(a.content, o);
+    const auto r = AssetReader::open_memory(bytes.data(), bytes.size(), false);
+    const DecodedElement d = r->decode_element(0);
+    EXPECT_TRUE(same(d.topology->tets, w.tets));
+    EXPECT_TRUE(same(d.topology->triangles, w.triangles));
+    EXPECT_TRUE(same(d.topology->triangle_tags, w.triangle_tags));
+    EXPECT_TRUE(same_terms(d.positions, w.positions));
+    EXPECT_TRUE(same_terms(r->decode_fields(0), w.fields));
+    // One corrupt blob at a time: tets, the last term's positions, a field blob.
+    const fb::ElementMeshes* m = r->index().elements()->Get(0);
+    for (const fb::BlobRef* ref :
+         {m->tets(), m->positions()->Get(m->positions()->size() - 1), m->fields()->Get(3)}) {
+      std::vector<std::uint8_t> bad = bytes;
+      bad[blob_section(bad) + ref->offset() + ref->size() / 3] ^= 0x40;
+      const auto rb = AssetReader::open_memory(bad.data(), bad.size(), false);
+      const Status s = ref == m->fields()->Get(3) ? status_of([&] { rb->decode_fields(0); })
+                                                  : status_of([&] { rb->decode_element(0); });
+      EXPECT_EQ(s, Status::ChecksumMismatch);
+    }
+  }
+}
+
 TEST(Asset, WriterRejectsInconsistentContent) {
   AssetContent c = small_asset().content;
   c.parameters.pop_back();
@@ -277,6 +573,7 @@ TEST(Asset, EveryBitFlipOfEveryConformanceAssetIsReported) {
         const std::size_t byte = bit / 8;
         ASSERT_GE(byte, section) << "a header or index flip passed open";
         r->decode_element(owner[byte - section]);
+        r->decode_fields(owner[byte - section]);
       } catch (const FormatError& err) {
         s = err.status;
       }

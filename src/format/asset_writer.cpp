@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <unordered_map>
 
 #include "cadinterp_generated.h"
 
@@ -21,19 +22,35 @@ void put_le(std::vector<std::uint8_t>& out, std::size_t at, std::uint64_t v, int
     out[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(v >> (8 * i));
 }
 
-// Appends blobs to the blob section (no padding) and returns their references.
+// Appends blobs to the blob section (no padding) and returns their references. Content-addressed:
+// a blob whose bytes and codec equal those of a blob already stored gets that blob's reference
+// (SPEC.md, "Layout"). Elements of a model whose mesh never changes combinatorics thus store
+// their topology once, and the reader decodes it once; field blobs of a sample that several
+// elements share (coded without a reference) are stored once too. Equal checksums are only a
+// hint: the bytes are compared.
 class BlobSink {
  public:
   explicit BlobSink(std::vector<std::uint8_t>& section) : file_(section) {}
   fb::BlobRef add(const std::vector<std::uint8_t>& bytes, Codec codec) {
-    const std::uint64_t offset = file_.size();
+    const std::uint64_t hash = XXH64(bytes.data(), bytes.size(), 0);
+    const auto fb_codec = static_cast<fb::Codec>(codec);
+    const auto [lo, hi] = stored_.equal_range(hash);
+    for (auto it = lo; it != hi; ++it) {
+      const fb::BlobRef& r = it->second;
+      if (r.size() == bytes.size() && r.codec() == fb_codec &&
+          (bytes.empty() ||
+           std::memcmp(file_.data() + r.offset(), bytes.data(), bytes.size()) == 0))
+        return r;
+    }
+    const fb::BlobRef ref(file_.size(), bytes.size(), hash, fb_codec);
     file_.insert(file_.end(), bytes.begin(), bytes.end());
-    return fb::BlobRef(offset, bytes.size(), XXH64(bytes.data(), bytes.size(), 0),
-                       static_cast<fb::Codec>(codec));
+    stored_.emplace(hash, ref);
+    return ref;
   }
 
  private:
   std::vector<std::uint8_t>& file_;
+  std::unordered_multimap<std::uint64_t, fb::BlobRef> stored_;  // by checksum
 };
 
 }  // namespace

@@ -121,6 +121,19 @@ std::vector<std::uint8_t> encode_floats(Codec c, const float* data, std::size_t 
 void decode_floats(Codec c, const std::uint8_t* bytes, std::size_t size, std::size_t rows,
                    int comps, const float* reference, float* out);
 
+/// As decode_floats, and returns true iff every value written to out is finite. The answer costs
+/// no second pass over out where it can be avoided: lossless raw, quant-delta-zstd and meshopt
+/// test the bits in their output loop; their lossy modes are finite by construction (a checked
+/// finite step, the value clamped to the float range before the conversion); Draco, whose output
+/// comes from the Draco library, is scanned after decoding.
+/// @param[in] reference  as for decode_floats; if used it must hold finite values only (the
+///                       lossy result is then finite; with a non-finite reference the return
+///                       value is unspecified). Asset readers pass the canonical array, which
+///                       they decode and check first.
+[[nodiscard]] bool decode_floats_finite(Codec c, const std::uint8_t* bytes, std::size_t size,
+                                        std::size_t rows, int comps, const float* reference,
+                                        float* out);
+
 /// Encodes a rows x per_row index array (tets per_row = 4, triangles per_row = 3).
 /// @param[in] idx           rows x per_row, every entry < vertex_count; may be null iff rows == 0
 /// @param[in] vertex_count  number of vertices the indices refer to
@@ -191,7 +204,14 @@ inline float dequantize_one(std::int32_t q, double ref, double step) {
 }
 /// Lossless residual: float bits minus reference bits (mod 2^32), or the bits without reference.
 void bits_residual(const float* data, const float* ref, std::size_t n, std::uint32_t* r);
-void bits_unresidual(const std::uint32_t* r, const float* ref, std::size_t n, float* out);
+/// Returns true iff every value written is finite (tested in the same loop).
+bool bits_unresidual(const std::uint32_t* r, const float* ref, std::size_t n, float* out);
+/// Copies n little-endian floats from bytes to out; true iff all of them are finite.
+bool copy_floats_finite(const std::uint8_t* bytes, std::size_t n, float* out);
+/// True iff all n values are finite (one pass).
+bool all_finite(const float* v, std::size_t n);
+/// The exponent bits of a float32: all ones exactly for infinities and NaNs.
+inline constexpr std::uint32_t kFloatExponentMask = 0x7f800000u;
 
 /// Argument checks shared by all codecs (throw InvalidArgument).
 void check_float_args(const float* data, std::size_t rows, int comps, const float* reference,
@@ -201,10 +221,11 @@ void check_index_args(const std::uint32_t* idx, std::size_t rows, int per_row,
 /// Throws Corrupt if some index >= vertex_count.
 void check_decoded_indices(const std::uint32_t* idx, std::size_t n, std::uint32_t vertex_count);
 
-// Per-codec entry points, arguments already checked by the dispatchers in codec.cpp.
+// Per-codec entry points, arguments already checked by the dispatchers in codec.cpp. The float
+// decoders return what decode_floats_finite() returns.
 std::vector<std::uint8_t> qdz_encode_floats(const float* data, std::size_t rows, int comps,
                                             const float* reference, double max_abs_error);
-void qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
+bool qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
                        const float* reference, float* out);
 std::vector<std::uint8_t> qdz_encode_indices(const std::uint32_t* idx, std::size_t rows,
                                              int per_row, std::uint32_t vertex_count);
@@ -213,7 +234,7 @@ void qdz_decode_indices(const std::uint8_t* bytes, std::size_t size, std::size_t
 
 std::vector<std::uint8_t> meshopt_encode_floats(const float* data, std::size_t rows, int comps,
                                                 const float* reference, double max_abs_error);
-void meshopt_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
+bool meshopt_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
                            const float* reference, float* out);
 std::vector<std::uint8_t> meshopt_encode_indices(const std::uint32_t* idx, std::size_t rows,
                                                  int per_row, std::uint32_t vertex_count);
@@ -222,7 +243,7 @@ void meshopt_decode_indices(const std::uint8_t* bytes, std::size_t size, std::si
 
 std::vector<std::uint8_t> draco_encode_floats(const float* data, std::size_t rows, int comps,
                                               const float* reference, double max_abs_error);
-void draco_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
+bool draco_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
                          const float* reference, float* out);
 std::vector<std::uint8_t> draco_encode_indices(const std::uint32_t* idx, std::size_t rows,
                                                int per_row, std::uint32_t vertex_count);

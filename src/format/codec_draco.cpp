@@ -204,7 +204,7 @@ std::vector<std::uint8_t> draco_encode_floats(const float* data, std::size_t row
        "draco: max_abs_error is too small for 24-bit quantization of this array");
 }
 
-void draco_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
+bool draco_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
                          const float* reference, float* out) {
   std::size_t pos = 0;
   const BlobHeader h = read_header(bytes, size, pos, static_cast<std::uint8_t>(comps), rows, 0);
@@ -216,7 +216,7 @@ void draco_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_
   }
   if (rows == 0) {
     if (pos != size) corrupt("trailing bytes");
-    return;
+    return true;
   }
   const std::uint8_t* p = bytes + pos;
   const std::size_t m = size - pos;
@@ -246,10 +246,12 @@ void draco_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_
     if (v >= entries) corrupt("draco: point maps outside the attribute");
     std::memcpy(out + i * comps, base + v * stride, stride);
   }
-  if (h.flags & kFlagReference) {
-    const std::size_t n = rows * static_cast<std::size_t>(comps);
+  const std::size_t n = rows * static_cast<std::size_t>(comps);
+  if (h.flags & kFlagReference)
     for (std::size_t i = 0; i < n; ++i) out[i] += reference[i];
-  }
+  // Lossless values pass any bits through, and a lossy float sum can overflow: scanned (Draco's
+  // decode costs far more than this pass).
+  return all_finite(out, n);
 }
 
 std::vector<std::uint8_t> draco_encode_indices(const std::uint32_t* idx, std::size_t rows,

@@ -58,7 +58,7 @@ std::vector<std::uint8_t> meshopt_encode_floats(const float* data, std::size_t r
   return out;
 }
 
-void meshopt_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
+bool meshopt_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
                            const float* reference, float* out) {
   std::size_t pos = 0;
   const BlobHeader h = read_header(bytes, size, pos, static_cast<std::uint8_t>(comps), rows, 0);
@@ -75,7 +75,7 @@ void meshopt_decode_floats(const std::uint8_t* bytes, std::size_t size, std::siz
   }
   if (rows == 0) {
     if (pos != size) corrupt("trailing bytes");
-    return;
+    return true;
   }
   const std::size_t n = rows * static_cast<std::size_t>(comps);
   thread_local std::vector<std::uint32_t> words;
@@ -85,11 +85,10 @@ void meshopt_decode_floats(const std::uint8_t* bytes, std::size_t size, std::siz
   const int rc = meshopt_decodeVertexBuffer(
       words.data(), rows, static_cast<std::size_t>(comps) * 4u, bytes + pos, size - pos);
   if (rc != 0) corrupt("meshopt vertex decoder error " + std::to_string(rc));
-  if (h.mode == kModeLossless) {
-    bits_unresidual(words.data(), ref, n, out);
-  } else {
-    dequantize(reinterpret_cast<const std::int32_t*>(words.data()), ref, n, step, out);
-  }
+  if (h.mode == kModeLossless) return bits_unresidual(words.data(), ref, n, out);
+  // Finite by construction (decode_floats_finite).
+  dequantize(reinterpret_cast<const std::int32_t*>(words.data()), ref, n, step, out);
+  return true;
 }
 
 std::vector<std::uint8_t> meshopt_encode_indices(const std::uint32_t* idx, std::size_t rows,

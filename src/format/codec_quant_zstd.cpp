@@ -169,7 +169,7 @@ std::vector<std::uint8_t> qdz_encode_floats(const float* data, std::size_t rows,
   return pack(h, &step, reinterpret_cast<const std::uint32_t*>(q.data()), rows, comps);
 }
 
-void qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
+bool qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t rows, int comps,
                        const float* reference, float* out) {
   std::size_t pos = 0;
   const BlobHeader h =
@@ -187,9 +187,15 @@ void qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t 
   }
   const std::uint8_t* planes = decompress_planes(bytes, size, pos, rows, comps);
   const bool delta = (h.flags & kFlagRowDelta) != 0;
-  // One pass from the planes to `out`, the reference test hoisted out of the loop.
+  // One pass from the planes to `out`, the reference test hoisted out of the loop. Lossless bits
+  // are tested for inf/NaN as they are stored; lossy values are finite by construction
+  // (decode_floats_finite).
   if (h.mode == kModeLossless) {
-    auto put = [out](std::size_t k, std::uint32_t b) { std::memcpy(&out[k], &b, 4); };
+    std::uint32_t bad = 0;
+    auto put = [out, &bad](std::size_t k, std::uint32_t b) {
+      bad |= static_cast<std::uint32_t>((b & kFloatExponentMask) == kFloatExponentMask);
+      std::memcpy(&out[k], &b, 4);
+    };
     if (ref) {
       unshuffle_each(planes, rows, comps, delta, [&](std::size_t k, std::uint32_t x) {
         std::uint32_t rb;
@@ -199,7 +205,9 @@ void qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t 
     } else {
       unshuffle_each(planes, rows, comps, delta, put);
     }
-  } else if (ref) {
+    return bad == 0;
+  }
+  if (ref) {
     unshuffle_each(planes, rows, comps, delta, [&](std::size_t k, std::uint32_t x) {
       out[k] = dequantize_one(static_cast<std::int32_t>(x), ref[k], step);
     });
@@ -208,6 +216,7 @@ void qdz_decode_floats(const std::uint8_t* bytes, std::size_t size, std::size_t 
       out[k] = dequantize_one(static_cast<std::int32_t>(x), 0.0, step);
     });
   }
+  return true;
 }
 
 std::vector<std::uint8_t> qdz_encode_indices(const std::uint32_t* idx, std::size_t rows,
@@ -233,9 +242,14 @@ void qdz_decode_indices(const std::uint8_t* bytes, std::size_t size, std::size_t
   if (h.flags & ~kFlagRowDelta) corrupt("unknown flags");
   const std::size_t n = rows * static_cast<std::size_t>(per_row);
   const std::uint8_t* planes = decompress_planes(bytes, size, pos, n, 1);
+  // The range check rides along in the output loop rather than re-reading `out`.
+  std::uint32_t bad = 0;
   unshuffle_each(planes, n, 1, (h.flags & kFlagRowDelta) != 0,
-                 [out](std::size_t k, std::uint32_t x) { out[k] = x; });
-  check_decoded_indices(out, n, vertex_count);
+                 [out, &bad, vertex_count](std::size_t k, std::uint32_t x) {
+                   bad |= static_cast<std::uint32_t>(x >= vertex_count);
+                   out[k] = x;
+                 });
+  if (bad) corrupt("decoded index >= vertex_count");
 }
 
 }  // namespace cadinterp::format::detail

@@ -285,6 +285,43 @@ TEST_P(CodecTest, LosslessKeepsSpecialValues) {
   }
 }
 
+// decode_floats_finite: the same values as decode_floats, and false exactly when one of them is
+// inf or NaN, wherever it lies (blocked loops: block starts, ends and the tail).
+TEST_P(CodecTest, DecodeFloatsFiniteFindsEveryNonFiniteValue) {
+  const Codec codec = GetParam();
+  const std::uint32_t specials[] = {0x7f800000u, 0xff800000u, 0x7fc00000u, 0xffa5a5a5u};
+  for (std::size_t n : {std::size_t(1), std::size_t(63), std::size_t(64), std::size_t(65),
+                        std::size_t(1000), std::size_t(4097)}) {
+    std::vector<float> v(n), ref(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      v[i] = std::sin(0.01f * static_cast<float>(i)) * 10.0f;
+      ref[i] = v[i] * 0.5f;
+    }
+    for (const float* r :
+         {static_cast<const float*>(nullptr), static_cast<const float*>(ref.data())}) {
+      SCOPED_TRACE(std::to_string(n) + (r ? " with reference" : ""));
+      std::vector<float> out(n), plain(n);
+      auto blob = encode_floats(codec, v.data(), n, 1, r, FloatParams{});
+      EXPECT_TRUE(decode_floats_finite(codec, blob.data(), blob.size(), n, 1, r, out.data()));
+      EXPECT_EQ(0, std::memcmp(out.data(), v.data(), n * 4));
+      blob = encode_floats(codec, v.data(), n, 1, r, FloatParams{1e-3});
+      EXPECT_TRUE(decode_floats_finite(codec, blob.data(), blob.size(), n, 1, r, out.data()));
+      for (std::size_t at : {std::size_t(0), std::size_t(63), std::size_t(64), n / 2, n - 1}) {
+        if (at >= n) continue;
+        for (std::uint32_t bits : specials) {
+          std::vector<float> w = v;
+          std::memcpy(&w[at], &bits, 4);
+          blob = encode_floats(codec, w.data(), n, 1, r, FloatParams{});
+          EXPECT_FALSE(decode_floats_finite(codec, blob.data(), blob.size(), n, 1, r, out.data()))
+              << "at " << at;
+          decode_floats(codec, blob.data(), blob.size(), n, 1, r, plain.data());
+          EXPECT_EQ(0, std::memcmp(out.data(), plain.data(), n * 4));
+        }
+      }
+    }
+  }
+}
+
 // The bound holds for values across many magnitudes, far from their reference, and for small
 // max_abs_error relative to the values (where float32 rounding is the larger part).
 TEST_P(CodecTest, LossyBoundOnHardValues) {

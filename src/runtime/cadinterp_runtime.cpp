@@ -4,6 +4,8 @@
 // status codes: nothing crosses the ABI.
 #include "cadinterp/cadinterp.h"
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -21,35 +23,152 @@
 #include "runtime/blend_multi.h"
 #include "runtime/mesh_metrics.h"
 
+using cadinterp::format::AssetReader;
+using cadinterp::format::DecodedArray;
 using cadinterp::format::DecodedElement;
+using cadinterp::format::SpareArrays;
+using cadinterp::format::Topology;
 
 namespace {
 
+// Float arrays of released elements, for the next decode to reuse. Memory a decode writes for the
+// first time costs a page fault per 4 KiB (measured: about 2,700 faults and as much CPU time as
+// the raw decode itself for one 100k-vertex element), and whether freed memory comes back without
+// faults is up to malloc's heuristics. Bounded to one element's worth: the largest element
+// released so far (positions and fields), outside the cache budget.
+class BufferPool {
+ public:
+  // Moves the arrays of a released element in, as far as the bound allows (the rest are freed).
+  void give(DecodedElement& mesh, std::vector<DecodedArray<float>>& fields) noexcept {
+    std::size_t element = 0;
+    auto count = [&](const DecodedArray<float>& a) { element += a.capacity() * sizeof(float); };
+    count(mesh.canonical);
+    for (const auto& a : mesh.positions) count(a);
+    for (const auto& a : fields) count(a);
+    std::lock_guard<std::mutex> lock(mu_);
+    cap_ = std::max(cap_, element);
+    put(mesh.canonical);
+    for (auto& a : mesh.positions) put(a);
+    for (auto& a : fields) put(a);
+  }
+  // Every pooled array, for one decode; what it leaves goes back with give_back.
+  SpareArrays take_all() {
+    std::lock_guard<std::mutex> lock(mu_);
+    bytes_ = 0;
+    return std::move(arrays_);
+  }
+  void give_back(SpareArrays& spare) noexcept {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (auto& a : spare) put(a);
+  }
+
+ private:
+  // Under mu_. Runs in destructors: never throws (an array the list has no room for is freed).
+  void put(DecodedArray<float>& a) noexcept {
+    const std::size_t b = a.capacity() * sizeof(float);
+    if (b == 0 || bytes_ + b > cap_) return;
+    try {
+      arrays_.push_back(std::move(a));
+      bytes_ += b;
+    } catch (const std::bad_alloc&) {
+    }
+  }
+  std::mutex mu_;
+  SpareArrays arrays_;
+  std::size_t bytes_ = 0, cap_ = 0;
+};
+
+// Returns the arrays a decode did not use to the pool, also when the decode throws.
+struct SpareGuard {
+  BufferPool& pool;
+  SpareArrays spare = pool.take_all();
+  ~SpareGuard() { pool.give_back(spare); }
+};
+
+// An element as the cache holds it. A cell switch decodes the topology (or shares a neighbour's)
+// and the positions; the field arrays, as large again, are decoded by the first call that asks
+// for a field, since shape-only calls (eval without fields, mass properties) never read them.
+struct CachedElement {
+  explicit CachedElement(std::shared_ptr<BufferPool> p) : pool(std::move(p)) {}
+  CachedElement(const CachedElement&) = delete;
+  CachedElement& operator=(const CachedElement&) = delete;
+  // The last holder (cache or workspace) releases the element: its buffers go to the pool.
+  ~CachedElement() { pool->give(mesh, fields); }
+
+  std::shared_ptr<BufferPool> pool;
+  int index = -1;
+  DecodedElement mesh;
+  // Filled once under fields_mu; fields_ready (release/acquire) publishes them, so calls after the
+  // first read them without locking.
+  mutable std::mutex fields_mu;
+  mutable std::atomic<bool> fields_ready{false};
+  mutable std::vector<DecodedArray<float>> fields;
+};
+
 // Least-recently-used cache of decoded elements under a byte budget. Elements are shared_ptrs:
-// a workspace holding one keeps it alive after eviction.
+// a workspace holding one keeps it alive after eviction. The budget counts each element's own
+// arrays (positions, and fields once decoded) and each distinct topology once, however many
+// cached elements share it.
 class ElementCache {
  public:
-  std::shared_ptr<const DecodedElement> get(int e, const cadinterp::format::AssetReader& reader) {
+  std::shared_ptr<const CachedElement> get(int e, const AssetReader& reader) {
     {
       std::lock_guard<std::mutex> lock(mu_);
       auto it = map_.find(e);
       if (it != map_.end()) {
-        lru_.splice(lru_.begin(), lru_, it->second.second);
-        return it->second.first;
+        lru_.splice(lru_.begin(), lru_, it->second.lru);
+        return it->second.element;
       }
     }
     // Decode outside the lock: other threads keep evaluating cached elements meanwhile. Two
     // threads missing the same element both decode it; the second insert is dropped.
-    auto decoded = std::make_shared<const DecodedElement>(reader.decode_element(e));
+    auto decoded = std::make_shared<CachedElement>(pool_);
+    decoded->index = e;
+    {
+      SpareGuard g{*pool_};
+      decoded->mesh = reader.decode_element(e, &g.spare);
+    }
     std::lock_guard<std::mutex> lock(mu_);
     auto it = map_.find(e);
-    if (it != map_.end()) return it->second.first;
+    if (it != map_.end()) return it->second.element;
     lru_.push_front(e);
-    map_.emplace(e, std::make_pair(decoded, lru_.begin()));
-    bytes_ += decoded->bytes();
+    const std::size_t own = decoded->mesh.bytes();
+    map_.emplace(e, Slot{decoded, lru_.begin(), own});
+    bytes_ += own;
+    if (const Topology* t = decoded->mesh.topology.get())
+      if (topology_users_[t]++ == 0) bytes_ += t->bytes();
     evict();
     return decoded;
   }
+
+  // The field arrays of `el`, decoded on the first call. A failed decode throws its FormatError
+  // and keeps nothing, so every call that needs the fields reports it.
+  const std::vector<DecodedArray<float>>& fields(const CachedElement& el,
+                                                 const AssetReader& reader) {
+    if (el.fields_ready.load(std::memory_order_acquire)) return el.fields;
+    std::size_t added = 0;
+    {
+      std::lock_guard<std::mutex> lock(el.fields_mu);
+      if (!el.fields_ready.load(std::memory_order_relaxed)) {
+        SpareGuard g{*pool_};
+        std::vector<DecodedArray<float>> f = reader.decode_fields(el.index, &g.spare);
+        for (const auto& a : f) added += a.size() * sizeof(float);
+        el.fields = std::move(f);
+        el.fields_ready.store(true, std::memory_order_release);
+      }
+    }
+    if (added) {  // charged only while the element is cached (an evicted one is not counted)
+      std::lock_guard<std::mutex> lock(mu_);
+      auto it = map_.find(el.index);
+      if (it != map_.end() && it->second.element.get() == &el) {
+        it->second.bytes += added;
+        bytes_ += added;
+        evict();
+      }
+    }
+    return el.fields;
+  }
+
   void set_budget(std::size_t bytes) {
     std::lock_guard<std::mutex> lock(mu_);
     budget_ = bytes;
@@ -57,21 +176,35 @@ class ElementCache {
   }
 
  private:
+  struct Slot {
+    std::shared_ptr<CachedElement> element;
+    std::list<int>::iterator lru;
+    std::size_t bytes;  // what this entry added to bytes_, topology aside
+  };
   void evict() {  // keeps at least the most recent element
     while (bytes_ > budget_ && lru_.size() > 1) {
       const int victim = lru_.back();
       lru_.pop_back();
       auto it = map_.find(victim);
-      bytes_ -= it->second.first->bytes();
+      bytes_ -= it->second.bytes;
+      // A cached element keeps its topology alive, so the pointer cannot be reused while it is a
+      // key here.
+      if (const Topology* t = it->second.element->mesh.topology.get()) {
+        auto u = topology_users_.find(t);
+        if (--u->second == 0) {
+          bytes_ -= t->bytes();
+          topology_users_.erase(u);
+        }
+      }
       map_.erase(it);
     }
   }
+  const std::shared_ptr<BufferPool> pool_ = std::make_shared<BufferPool>();
   std::mutex mu_;
   std::size_t budget_ = std::size_t(256) << 20, bytes_ = 0;
   std::list<int> lru_;
-  std::unordered_map<int,
-                     std::pair<std::shared_ptr<const DecodedElement>, std::list<int>::iterator>>
-      map_;
+  std::unordered_map<int, Slot> map_;
+  std::unordered_map<const Topology*, std::size_t> topology_users_;  // cached elements per topology
 };
 
 struct FieldSlot {
@@ -106,7 +239,9 @@ struct cadinterp_asset {
 struct cadinterp_workspace {
   const cadinterp_asset* asset = nullptr;
   cadinterp::core::EvalWorkspace basis_ws;
-  std::shared_ptr<const DecodedElement> element;  // keeps returned topology alive
+  std::shared_ptr<const CachedElement> element;  // keeps returned topology alive
+  // The element's field arrays when the last call needed them (prepare), else null.
+  const std::vector<DecodedArray<float>>* fields = nullptr;
   std::vector<const float*> arrays;
   std::vector<float> weights;
   std::vector<float> positions, dpositions;
@@ -223,9 +358,11 @@ double dot(const float* a, const float* b, std::size_t n) {
 }
 
 // Shared front half of eval/grad/vjp/properties: argument checks, locate, basis weights, the
-// element's meshes. Returns OK with ws->element set and w filled.
+// element's meshes, and its fields if need_fields. Returns OK with ws->element set (and
+// ws->fields if need_fields) and w filled; throws FormatError if a decode fails.
 cadinterp_status prepare(cadinterp_workspace* ws, const double* x, const int* fields,
-                         int field_count, bool want_grad, cadinterp::core::BasisWeights* w) {
+                         int field_count, bool want_grad, bool need_fields,
+                         cadinterp::core::BasisWeights* w) {
   if (!x) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "x is NULL");
   if (field_count < 0 || (field_count > 0 && !fields))
     return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "fields is NULL or field_count negative");
@@ -241,23 +378,54 @@ cadinterp_status prepare(cadinterp_workspace* ws, const double* x, const int* fi
         ws, CADINTERP_E_INFEASIBLE,
         "x lies in element " + std::to_string(e) + ", which depends on an infeasible sample");
   basis.eval_element(e, x, ws->basis_ws, want_grad, w);
+  ws->fields = nullptr;
   ws->element = a.cache.get(e, *a.reader);
+  if (need_fields) ws->fields = &a.cache.fields(*ws->element, *a.reader);
   return CADINTERP_OK;
+}
+
+// Whether n floats are all finite: the largest magnitude's bits below the exponent of inf, as
+// an integer max that vectorizes (std::isfinite per value does not).
+bool finite_floats(const float* v, std::size_t n) {
+  std::uint32_t worst = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t b;
+    std::memcpy(&b, &v[i], 4);
+    worst = std::max(worst, b & 0x7fffffffu);
+  }
+  return worst < 0x7f800000u;
+}
+
+// Every stored value is finite (the reader checks), yet blends of values near the float range,
+// or derivatives over a tiny parameter range, can still overflow: such a result is refused
+// rather than handed out.
+cadinterp_status overflow(cadinterp_workspace* ws) {
+  return fail(ws, CADINTERP_E_CORRUPT_BLOB,
+              "the result is not finite: the asset's values overflow single precision");
+}
+
+bool finite_properties(const cadinterp_properties& p) {
+  static_assert(sizeof(cadinterp_properties) == 16 * sizeof(double), "16 doubles, no padding");
+  double v[16];
+  std::memcpy(v, &p, sizeof v);
+  for (double x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
 }
 
 // out = sum_t weight_t * arrays_t, the blend the bandwidth probe measures.
 void blend(cadinterp_workspace* ws, const double* weight, std::size_t offset, std::size_t n,
            bool positions, float* out) {
-  const DecodedElement& d = *ws->element;
-  const std::size_t terms = positions ? d.positions.size() : d.fields.size();
+  const auto& arrays = positions ? ws->element->mesh.positions : *ws->fields;
+  const std::size_t terms = arrays.size();
   ws->arrays.resize(terms);
   ws->weights.resize(terms);
   for (std::size_t t = 0; t < terms; ++t) {
-    ws->arrays[t] = (positions ? d.positions[t].data() : d.fields[t].data()) + offset;
+    ws->arrays[t] = arrays[t].data() + offset;
     ws->weights[t] = static_cast<float>(weight[t]);
   }
-  cadinterp::runtime::blend_arrays(ws->arrays.data(), ws->weights.data(), static_cast<int>(terms),
-                                   n, out);
+  cadinterp::runtime::blend_arrays_multi(ws->arrays.data(), ws->weights.data(),
+                                         static_cast<int>(terms), n, 1, &out);
 }
 
 }  // namespace
@@ -280,6 +448,8 @@ void cadinterp_format_version(int* major, int* minor) {
 
 const char* cadinterp_status_string(cadinterp_status status) {
   if (status == CADINTERP_E_NOT_FOUND) return "not found";
+  if (status == CADINTERP_E_CANCELLED) return "cancelled";
+  if (status == CADINTERP_E_STORE_MISMATCH) return "sample store belongs to another model";
   if (status < CADINTERP_OK || status > CADINTERP_E_INTERNAL) return "unknown status";
   return cadinterp::format::status_name(static_cast<cadinterp::format::Status>(status));
 }
@@ -424,12 +594,14 @@ cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x, const 
   if (!out) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out is NULL");
   CADINTERP_GUARD(ws, {
     cadinterp::core::BasisWeights w;
-    const cadinterp_status s = prepare(ws, x, fields, field_count, false, &w);
+    const cadinterp_status s = prepare(ws, x, fields, field_count, false, field_count > 0, &w);
     if (s != CADINTERP_OK) return s;
-    const DecodedElement& d = *ws->element;
-    const std::size_t nv = d.vertex_count, nt = d.tets.size() / 4;
+    const DecodedElement& d = ws->element->mesh;
+    const Topology& topo = *d.topology;
+    const std::size_t nv = d.vertex_count, nt = topo.tets.size() / 4;
     ws->positions.resize(nv * 3);
     blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
+    if (!finite_floats(ws->positions.data(), nv * 3)) return overflow(ws);
     ws->field_values.resize(static_cast<std::size_t>(field_count));
     ws->field_ptrs.resize(static_cast<std::size_t>(field_count));
     for (int i = 0; i < field_count; ++i) {
@@ -437,15 +609,16 @@ cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x, const 
       auto& dst = ws->field_values[static_cast<std::size_t>(i)];
       dst.resize(n);
       blend(ws, w.psi, field_offset(*ws->asset, fields[i], nv, nt), n, false, dst.data());
+      if (!finite_floats(dst.data(), n)) return overflow(ws);
       ws->field_ptrs[static_cast<std::size_t>(i)] = dst.data();
     }
     out->element = w.element;
     out->vertex_count = d.vertex_count;
     out->tet_count = static_cast<std::uint32_t>(nt);
-    out->triangle_count = static_cast<std::uint32_t>(d.triangles.size() / 3);
-    out->tets = d.tets.data();
-    out->triangles = d.triangles.data();
-    out->triangle_tags = d.triangle_tags.data();
+    out->triangle_count = static_cast<std::uint32_t>(topo.triangles.size() / 3);
+    out->tets = topo.tets.data();
+    out->triangles = topo.triangles.data();
+    out->triangle_tags = topo.triangle_tags.data();
     out->positions = ws->positions.data();
     out->fields = ws->field_ptrs.data();
     ws->error.clear();
@@ -459,10 +632,10 @@ cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x, const 
   if (!out) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out is NULL");
   CADINTERP_GUARD(ws, {
     cadinterp::core::BasisWeights w;
-    const cadinterp_status s = prepare(ws, x, fields, field_count, true, &w);
+    const cadinterp_status s = prepare(ws, x, fields, field_count, true, field_count > 0, &w);
     if (s != CADINTERP_OK) return s;
-    const DecodedElement& d = *ws->element;
-    const std::size_t nv = d.vertex_count, nt = d.tets.size() / 4;
+    const DecodedElement& d = ws->element->mesh;
+    const std::size_t nv = d.vertex_count, nt = d.topology->tets.size() / 4;
     const int K = ws->asset->reader->basis().dim();
     // One pass per array family: outputs are the value (weights psi) and the K derivatives
     // (weights dpsi/dx_k), so every stored array is read once (blend_multi.h).
@@ -481,6 +654,9 @@ cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x, const 
     for (std::size_t t = 0; t < nterm; ++t) ws->arrays[t] = d.positions[t].data();
     cadinterp::runtime::blend_arrays_multi(ws->arrays.data(), ws->weights.data(), w.count, nv * 3,
                                            K + 1, outs);
+    if (!finite_floats(ws->positions.data(), nv * 3) ||
+        !finite_floats(ws->dpositions.data(), static_cast<std::size_t>(K) * nv * 3))
+      return overflow(ws);
     ws->field_grads.resize(static_cast<std::size_t>(field_count));
     ws->field_grad_ptrs.resize(static_cast<std::size_t>(field_count));
     for (int i = 0; i < field_count; ++i) {
@@ -489,9 +665,10 @@ cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x, const 
       auto& dst = ws->field_grads[static_cast<std::size_t>(i)];
       dst.resize(static_cast<std::size_t>(K) * n);
       for (int k = 0; k < K; ++k) outs[k] = dst.data() + static_cast<std::size_t>(k) * n;
-      for (std::size_t t = 0; t < nterm; ++t) ws->arrays[t] = d.fields[t].data() + off;
+      for (std::size_t t = 0; t < nterm; ++t) ws->arrays[t] = (*ws->fields)[t].data() + off;
       cadinterp::runtime::blend_arrays_multi(ws->arrays.data(), ws->weights.data() + nterm, w.count,
                                              n, K, outs);
+      if (!finite_floats(dst.data(), static_cast<std::size_t>(K) * n)) return overflow(ws);
       ws->field_grad_ptrs[static_cast<std::size_t>(i)] = dst.data();
     }
     out->element = w.element;
@@ -511,10 +688,12 @@ cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const f
   if (!dF_dx) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "dF_dx is NULL");
   CADINTERP_GUARD(ws, {
     cadinterp::core::BasisWeights w;
-    const cadinterp_status s = prepare(ws, x, fields, field_count, true, &w);
+    // Field arrays are read only for the adjoints given.
+    const bool need_fields = field_count > 0 && dF_dfields != nullptr;
+    const cadinterp_status s = prepare(ws, x, fields, field_count, true, need_fields, &w);
     if (s != CADINTERP_OK) return s;
-    const DecodedElement& d = *ws->element;
-    const std::size_t nv = d.vertex_count, nt = d.tets.size() / 4;
+    const DecodedElement& d = ws->element->mesh;
+    const std::size_t nv = d.vertex_count, nt = d.topology->tets.size() / 4;
     const int K = ws->asset->reader->basis().dim();
     // dF/dx_k = sum_t dpsi_t/dx_k <dF/dP, p_t>: one dot product per term (Eq. 13 contracted).
     double out[cadinterp::core::kMaxDim] = {};
@@ -525,12 +704,14 @@ cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const f
       for (int f = 0; dF_dfields && f < field_count; ++f) {
         const float* g = dF_dfields[f];
         if (!g) continue;
-        const float* v = d.fields[static_cast<std::size_t>(t)].data() +
+        const float* v = (*ws->fields)[static_cast<std::size_t>(t)].data() +
                          field_offset(*ws->asset, fields[f], nv, nt);
         dot_t += dot(g, v, field_size(*ws->asset, fields[f], nv, nt));
       }
       for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dot_t;
     }
+    for (int k = 0; k < K; ++k)
+      if (!std::isfinite(out[k])) return overflow(ws);
     std::memcpy(dF_dx, out, sizeof(double) * static_cast<std::size_t>(K));
     ws->error.clear();
     return CADINTERP_OK;
@@ -545,15 +726,17 @@ cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double
   if (!std::isfinite(density)) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "density not finite");
   CADINTERP_GUARD(ws, {
     cadinterp::core::BasisWeights w;
-    const cadinterp_status s = prepare(ws, x, nullptr, 0, grad != nullptr, &w);
+    const cadinterp_status s = prepare(ws, x, nullptr, 0, grad != nullptr, false, &w);
     if (s != CADINTERP_OK) return s;
-    const DecodedElement& d = *ws->element;
+    const DecodedElement& d = ws->element->mesh;
+    const Topology& topo = *d.topology;
     const std::size_t nv = d.vertex_count;
     ws->positions.resize(nv * 3);
     blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
-    const cadinterp::runtime::TetMeshView mesh{ws->positions.data(), nv,
-                                               d.tets.data(),        d.tets.size() / 4,
-                                               d.triangles.data(),   d.triangles.size() / 3};
+    if (!finite_floats(ws->positions.data(), nv * 3)) return overflow(ws);
+    const cadinterp::runtime::TetMeshView mesh{ws->positions.data(),  nv,
+                                               topo.tets.data(),      topo.tets.size() / 4,
+                                               topo.triangles.data(), topo.triangles.size() / 3};
     cadinterp::runtime::MassPropertiesOptions opt;
     opt.density = density;
     for (int c = 0; c < 3; ++c) opt.direction[c] = direction[c];
@@ -602,8 +785,12 @@ cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double
           *dst[o] = sum;
         }
       }
+      for (const cadinterp_properties& gk : g)
+        if (!finite_properties(gk)) return overflow(ws);
+      if (!finite_properties(result)) return overflow(ws);
       std::memcpy(grad, g.data(), sizeof(cadinterp_properties) * static_cast<std::size_t>(K));
     }
+    if (!finite_properties(result)) return overflow(ws);
     *out = result;
     ws->error.clear();
     return CADINTERP_OK;

@@ -7,8 +7,11 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <set>
 
 #include "cadinterp/cadinterp.h"
+#include "cadinterp_generated.h"
+#include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
 #include "runtime/mesh_metrics.h"
 
@@ -286,6 +289,127 @@ TEST(Runtime, TinyCacheBudgetStillEvaluatesCorrectly) {
     ASSERT_EQ(cadinterp_eval(o->ws, xs[i].data(), nullptr, 0, &m), CADINTERP_OK);
     EXPECT_EQ(std::vector<float>(m.positions, m.positions + m.vertex_count * 3), first[i]);
   }
+}
+
+// Byte offset of blob `r` in the file `b`.
+std::size_t blob_at(const std::vector<std::uint8_t>& b, const cadinterp::fb::BlobRef* r) {
+  std::uint64_t index_size = 0;
+  for (int i = 7; i >= 0; --i) index_size = (index_size << 8) | b[static_cast<std::size_t>(32 + i)];
+  return static_cast<std::size_t>(48 + index_size + r->offset());
+}
+
+std::unique_ptr<Opened> open_bytes(std::vector<std::uint8_t> bytes) {
+  auto o = std::make_unique<Opened>();
+  o->bytes = std::move(bytes);
+  EXPECT_EQ(cadinterp_open_memory(o->bytes.data(), o->bytes.size(), 0, &o->asset), CADINTERP_OK)
+      << cadinterp_open_error();
+  EXPECT_EQ(cadinterp_workspace_create(o->asset, &o->ws), CADINTERP_OK);
+  return o;
+}
+
+// Elements with the same topology share it: meshes evaluated in different elements point to the
+// same topology arrays.
+TEST(Runtime, ElementsShareOneDecodedTopology) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  ASSERT_GE(cadinterp_element_count(o->asset), 2);
+  cadinterp_workspace* ws2 = nullptr;
+  ASSERT_EQ(cadinterp_workspace_create(o->asset, &ws2), CADINTERP_OK);
+  const double a[2] = {0.1, 0.1}, b[2] = {0.9, 0.9};
+  cadinterp_mesh ma, mb;
+  ASSERT_EQ(cadinterp_eval(o->ws, a, nullptr, 0, &ma), CADINTERP_OK);
+  ASSERT_EQ(cadinterp_eval(ws2, b, nullptr, 0, &mb), CADINTERP_OK);
+  ASSERT_NE(ma.element, mb.element);
+  EXPECT_EQ(ma.tets, mb.tets);
+  EXPECT_EQ(ma.triangles, mb.triangles);
+  EXPECT_EQ(ma.triangle_tags, mb.triangle_tags);
+  cadinterp_workspace_destroy(ws2);
+}
+
+// A flipped byte in the topology blob all elements share: every element reports it, on every call.
+TEST(Runtime, CorruptSharedTopologyIsReportedByEveryElement) {
+  const auto good = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  std::vector<std::uint8_t> b = good->bytes;
+  const auto reader = cadinterp::format::AssetReader::open_memory(b.data(), b.size(), true);
+  const auto* tets = reader->index().elements()->Get(0)->tets();
+  b[blob_at(b, tets) + tets->size() / 2] ^= 0x08;
+  const auto o = open_bytes(std::move(b));
+  std::mt19937_64 rng(11);
+  std::set<int> elements;
+  for (int i = 0; i < 200; ++i) {
+    const double x[2] = {std::uniform_real_distribution<double>(0, 1)(rng),
+                         std::uniform_real_distribution<double>(0, 1)(rng)};
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_E_CHECKSUM);
+    int e = -1;
+    ASSERT_EQ(cadinterp_locate(o->asset, x, &e, nullptr), CADINTERP_OK);
+    elements.insert(e);
+  }
+  EXPECT_EQ(static_cast<int>(elements.size()), cadinterp_element_count(o->asset));
+}
+
+// Fields are decoded on the first call that asks for one: a corrupt field blob fails exactly the
+// calls that need fields (with the named status, outputs untouched, every time), never the
+// shape-only ones.
+TEST(Runtime, LazyFieldsFailOnlyTheCallsThatNeedThem) {
+  const auto good = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  const double x[2] = {0.3, 0.6};
+  int e = -1;
+  ASSERT_EQ(cadinterp_locate(good->asset, x, &e, nullptr), CADINTERP_OK);
+  cadinterp_mesh ref;
+  ASSERT_EQ(cadinterp_eval(good->ws, x, nullptr, 0, &ref), CADINTERP_OK);
+  const std::vector<float> ref_pos(ref.positions, ref.positions + 3 * ref.vertex_count);
+
+  // Two ways to break the field arrays of element e: a flipped byte (checksum) and a NaN stored
+  // losslessly (caught by the decoder's finiteness check).
+  std::vector<std::uint8_t> flipped = good->bytes;
+  {
+    const auto reader =
+        cadinterp::format::AssetReader::open_memory(flipped.data(), flipped.size(), true);
+    const auto* f =
+        reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e))->fields();
+    flipped[blob_at(flipped, f->Get(f->size() - 1)) + 20] ^= 0x01;
+  }
+  cadinterp::format::AssetContent nan_content = good->synthetic.content;
+  nan_content.elements[static_cast<std::size_t>(e)].fields.back()[5] = std::nanf("");
+  const std::pair<std::vector<std::uint8_t>, cadinterp_status> cases[] = {
+      {flipped, CADINTERP_E_CHECKSUM},
+      {cadinterp::format::write_asset(nan_content, {}), CADINTERP_E_CORRUPT_BLOB}};
+  for (const auto& [bytes, status] : cases) {
+    SCOPED_TRACE(cadinterp_status_string(status));
+    const auto o = open_bytes(bytes);
+    const int field[1] = {0};
+    for (int round = 0; round < 2; ++round) {  // the failure is not remembered as success
+      cadinterp_mesh m;
+      std::memset(&m, 0x5a, sizeof m);
+      const cadinterp_mesh before = m;
+      EXPECT_EQ(cadinterp_eval(o->ws, x, field, 1, &m), status);
+      EXPECT_EQ(std::memcmp(&m, &before, sizeof m), 0) << "a failed eval wrote its output";
+      EXPECT_GT(std::strlen(cadinterp_workspace_error(o->ws)), 0u);
+      cadinterp_mesh_grad g;
+      std::memset(&g, 0x5a, sizeof g);
+      const cadinterp_mesh_grad gbefore = g;
+      EXPECT_EQ(cadinterp_grad(o->ws, x, field, 1, &g), status);
+      EXPECT_EQ(std::memcmp(&g, &gbefore, sizeof g), 0);
+      std::vector<float> adj(3 * ref.vertex_count, 1.0f), fadj(ref.vertex_count, 1.0f);
+      const float* fadjs[1] = {fadj.data()};
+      double dx[2] = {7, 7};
+      EXPECT_EQ(cadinterp_vjp(o->ws, x, adj.data(), field, fadjs, 1, dx), status);
+      EXPECT_EQ(dx[0], 7);
+      EXPECT_EQ(dx[1], 7);
+      // Shape-only calls never decode the fields.
+      EXPECT_EQ(cadinterp_vjp(o->ws, x, adj.data(), nullptr, nullptr, 0, dx), CADINTERP_OK);
+      ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
+      EXPECT_EQ(std::vector<float>(m.positions, m.positions + 3 * m.vertex_count), ref_pos);
+      const double dir[3] = {0, 0, 1};
+      cadinterp_properties p;
+      EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, dir, &p, nullptr), CADINTERP_OK);
+    }
+  }
+  // And the intact asset evaluates the fields after shape-only calls.
+  const int both[2] = {0, 1};
+  cadinterp_mesh m;
+  EXPECT_EQ(cadinterp_eval(good->ws, x, both, 2, &m), CADINTERP_OK);
+  EXPECT_TRUE(std::isfinite(m.fields[0][0]) && std::isfinite(m.fields[1][0]));
 }
 
 }  // namespace
