@@ -404,13 +404,12 @@ cadinterp_status overflow(cadinterp_workspace* ws) {
               "the result is not finite: the asset's values overflow single precision");
 }
 
+// Overflow test of mass properties: volume, mass and areas are sums that only overflow. The
+// centroid and inertia divide by the volume and are NaN for a mesh of zero volume, by
+// definition (mesh_metrics.h), so they are left to the caller.
 bool finite_properties(const cadinterp_properties& p) {
-  static_assert(sizeof(cadinterp_properties) == 16 * sizeof(double), "16 doubles, no padding");
-  double v[16];
-  std::memcpy(v, &p, sizeof v);
-  for (double x : v)
-    if (!std::isfinite(x)) return false;
-  return true;
+  return std::isfinite(p.volume) && std::isfinite(p.mass) && std::isfinite(p.area) &&
+         std::isfinite(p.frontal_area);
 }
 
 // out = sum_t weight_t * arrays_t, the blend the bandwidth probe measures.

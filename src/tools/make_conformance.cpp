@@ -246,6 +246,32 @@ int main(int argc, char** argv) {
            index_of(b)->mutable_parameters()->GetMutableObject(0)->mutate_upper(std::nan(""));
            rehash(b);
          }},
+        // Found by fuzzing the C ABI (fuzz_api, fuzz_open_eval):
+        {"short_index", "open", "CADINTERP_E_CORRUPT_INDEX",
+         "index size 4 (shorter than a FlatBuffers header), file size kept",
+         [](auto& b) { set_le(b, 32, 4, 8); }},
+        {"nul_in_name", "open", "CADINTERP_E_CORRUPT_INDEX",
+         "NUL inside the first parameter's name, checksum updated",
+         [](auto& b) {
+           const flatbuffers::String* n = index_of(b)->parameters()->Get(0)->name();
+           b[static_cast<std::size_t>(reinterpret_cast<const std::uint8_t*>(n->c_str()) -
+                                      b.data())] = 0;
+           rehash(b);
+         }},
+        {"basis_width_off_tree", "open", "CADINTERP_E_CORRUPT_INDEX",
+         "a B-spline's inverse width times 1.5 (finite, not from a tree), checksum updated",
+         [](auto& b) {
+           auto* w = index_of(b)->mutable_basis()->mutable_bs_inv_width();
+           w->Mutate(0, w->Get(0) * 1.5);
+           rehash(b);
+         }},
+        {"nan_error_estimate", "open", "CADINTERP_E_CORRUPT_INDEX",
+         "NaN error estimate of an element, checksum updated",
+         [](auto& b) {
+           index_of(b)->mutable_elements()->GetMutableObject(0)->mutate_error_estimate(
+               std::nan(""));
+           rehash(b);
+         }},
         {"blob_checksum", "eval", "CADINTERP_E_CHECKSUM", "a canonical-positions byte flipped",
          [](auto& b) {
            const auto* r = index_of(b)->elements()->Get(0)->canonical_positions();
