@@ -4,7 +4,8 @@
 #   release the full suite (unit + property tests) and a benchmark smoke run
 #   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan    the tests labelled 'concurrency' under ThreadSanitizer
-#   fuzz    the libFuzzer open+eval target for 30 s (clang, ASan + UBSan), seeded from conformance
+#   fuzz    the libFuzzer targets (open+eval, every C ABI call, every codec) side by side for 30 s
+#           (clang, ASan + UBSan), seeded from conformance and encoder outputs
 set -euo pipefail
 cd "$(dirname "$0")/.."
 JOBS="${JOBS:-$(nproc)}"
@@ -36,5 +37,5 @@ cmake --preset tsan >/dev/null
 cmake --build --preset tsan -j "$JOBS"
 ctest --preset tsan -j "$JOBS" -L concurrency
 
-step "fuzz: open+eval for 30 s"
+step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
 scripts/fuzz.sh 30 2>&1 | tail -3

@@ -186,6 +186,9 @@ CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a
 /**
  * Sets the byte budget of the cache of decoded elements (default 256 MiB). Least recently used
  * elements are dropped beyond it; an element in use by a workspace stays alive until released.
+ * A topology shared by several elements counts once; an element's field arrays are decoded (and
+ * counted) on the first call that reads fields; the buffers of one dropped element may be kept
+ * outside the budget for reuse by the next decode.
  */
 CADINTERP_API cadinterp_status cadinterp_set_cache_budget(cadinterp_asset* asset, size_t bytes);
 

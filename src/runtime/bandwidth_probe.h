@@ -1,6 +1,8 @@
 // The memory-bound reference kernel of evaluation: an element's mesh at x is a weighted sum of
-// the m stored meshes of its samples (P(x) = sum_k psi_k(x) p_k, DESIGN.md), so no eval kernel
-// can beat blend_arrays() on the same bytes. Benchmarks of the runtime's eval report against it
+// the m stored meshes of its samples (P(x) = sum_k psi_k(x) p_k, DESIGN.md), and the time to
+// stream those bytes is the floor of any eval kernel. blend_arrays() is kept simple so that it
+// measures the machine, not the kernel: eval's own register-blocked kernel (blend_multi.h) runs
+// at 0.75-0.95 of it. Benchmarks of the runtime's eval report against it
 // (bandwidth_probe_bench.cpp).
 #pragma once
 

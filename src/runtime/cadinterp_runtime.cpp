@@ -1,6 +1,6 @@
 // The C ABI of include/cadinterp/cadinterp.h over the asset reader (src/format), the compiled
-// basis (src/core) and the runtime kernels (blend: bandwidth_probe.h, mass properties:
-// mesh_metrics.h). Every exported body runs inside CADINTERP_GUARD, which maps exceptions to
+// basis (src/core) and the runtime kernels (blend: blend_multi.h, measured against the bandwidth
+// probe of bandwidth_probe.h; mass properties: mesh_metrics.h). Every exported body runs inside CADINTERP_GUARD, which maps exceptions to
 // status codes: nothing crosses the ABI.
 #include "cadinterp/cadinterp.h"
 
@@ -412,7 +412,7 @@ bool finite_properties(const cadinterp_properties& p) {
          std::isfinite(p.frontal_area);
 }
 
-// out = sum_t weight_t * arrays_t, the blend the bandwidth probe measures.
+// out = sum_t weight_t * arrays_t (Eq. 3): the multi-output kernel with one output.
 void blend(cadinterp_workspace* ws, const double* weight, std::size_t offset, std::size_t n,
            bool positions, float* out) {
   const auto& arrays = positions ? ws->element->mesh.positions : *ws->fields;
