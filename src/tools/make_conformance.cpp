@@ -7,6 +7,7 @@
 // at eval.
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -253,9 +254,11 @@ int main(int argc, char** argv) {
         {"nul_in_name", "open", "CADINTERP_E_CORRUPT_INDEX",
          "NUL inside the first parameter's name, checksum updated",
          [](auto& b) {
-           const flatbuffers::String* n = index_of(b)->parameters()->Get(0)->name();
-           b[static_cast<std::size_t>(reinterpret_cast<const std::uint8_t*>(n->c_str()) -
-                                      b.data())] = 0;
+           // Found by its text (its bytes live in the index; a name is unique enough here).
+           const std::string name = index_of(b)->parameters()->Get(0)->name()->str();
+           const auto at =
+               std::search(b.begin() + format::kHeaderSize, b.end(), name.begin(), name.end());
+           if (at != b.end()) *at = 0;
            rehash(b);
          }},
         {"basis_width_off_tree", "open", "CADINTERP_E_CORRUPT_INDEX",
