@@ -183,6 +183,17 @@ CADINTERP_API cadinterp_status cadinterp_locate(const cadinterp_asset* asset, co
 CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* asset,
                                                         const double* x, double* error);
 
+/** Number of parameter points where the builder's host failed (0 if asset is NULL). */
+CADINTERP_API int cadinterp_infeasible_point_count(const cadinterp_asset* asset);
+/**
+ * Infeasible point i (0 <= i < count) as the builder recorded it.
+ * @param[out] x        K doubles, real parameter coordinates
+ * @param[out] message  the host's message (may be NULL; valid until cadinterp_close)
+ * Thread-safety: safe.
+ */
+CADINTERP_API cadinterp_status cadinterp_infeasible_point(const cadinterp_asset* asset, int i,
+                                                          double* x, const char** message);
+
 /**
  * Sets the byte budget of the cache of decoded elements (default 256 MiB). Least recently used
  * elements are dropped beyond it; an element in use by a workspace stays alive until released.

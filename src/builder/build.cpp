@@ -491,6 +491,7 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
                       std::to_string(CADINTERP_VERSION_PATCH);
   c.host = host.name();
   c.options_json = options_json(opt, mapper.name());
+  for (const InfeasiblePoint& f : out.infeasible) c.infeasible.push_back({f.x, f.message});
 
   rep.samples = S;
   rep.elements = static_cast<int>(leaves.size());

@@ -331,6 +331,15 @@ TEST(Build, HostFailuresBecomeInfeasibleRegions) {
     cadinterp_mesh m;
     const double bad[2] = {0.95, 0.95}, good[2] = {0.2, 0.3};
     EXPECT_EQ(cadinterp_eval(ws, bad, nullptr, 0, &m), CADINTERP_E_INFEASIBLE);
+    // The asset records where the host failed and why.
+    ASSERT_EQ(cadinterp_infeasible_point_count(a), r.report.infeasible_points);
+    double x[2];
+    const char* message = nullptr;
+    ASSERT_EQ(cadinterp_infeasible_point(a, 0, x, &message), CADINTERP_OK);
+    EXPECT_GT(x[0], 0.75);
+    EXPECT_GT(x[1], 0.75);
+    EXPECT_NE(std::string(message).find("fillet too large"), std::string::npos) << message;
+    EXPECT_EQ(cadinterp_infeasible_point(a, -1, x, &message), CADINTERP_E_INVALID_ARGUMENT);
     EXPECT_EQ(cadinterp_eval(ws, good, nullptr, 0, &m), CADINTERP_OK);
     cadinterp_workspace_destroy(ws);
     cadinterp_close(a);

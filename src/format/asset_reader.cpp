@@ -324,6 +324,14 @@ void AssetReader::open(const ReadLimits& limits) {
       text(r->name(), "region name");
       text(r->kind(), "region kind");
     }
+  if (const auto* inf = index_->infeasible())
+    for (const fb::InfeasiblePoint* f : *inf) {
+      if (!f->x() || static_cast<int>(f->x()->size()) != basis_.dim())
+        corrupt("infeasible point with other than K coordinates");
+      for (double v : *f->x())
+        if (!std::isfinite(v)) corrupt("infeasible point not finite");
+      text(f->message(), "infeasible message");
+    }
   if (const fb::Provenance* pv = index_->provenance()) {
     text(pv->builder_version(), "builder version");
     text(pv->host(), "host name");

@@ -170,8 +170,18 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
       &p.node_dir, &p.node_split, &p.node_child, &p.node_elem, &p.elem_box, &p.elem_feasible,
       &p.elem_bs_begin, &p.elem_term_begin, &p.bs_centre, &p.bs_inv_width, &p.bs_col_begin,
       &p.term_sample, &p.col_term, &p.col_value);
+  std::vector<flatbuffers::Offset<fb::InfeasiblePoint>> infeasible;
+  for (const InfeasibleInfo& f : c.infeasible) {
+    if (static_cast<int>(f.x.size()) != K) bad("infeasible point with other than K coordinates");
+    for (double v : f.x)
+      if (!std::isfinite(v)) bad("infeasible point not finite");
+    if (f.message.find('\0') != std::string::npos) bad("infeasible message contains a NUL");
+    infeasible.push_back(fb::CreateInfeasiblePointDirect(fbb, &f.x, f.message.c_str()));
+  }
+  // Absent, not empty, when there is none: assets without failures keep their bytes.
   const auto asset = fb::CreateAssetDirect(fbb, &params, basis, &elements, &fields, &regions, prov,
-                                           static_cast<float>(o.position_max_abs_error));
+                                           static_cast<float>(o.position_max_abs_error),
+                                           infeasible.empty() ? nullptr : &infeasible);
   fb::FinishAssetBuffer(fbb, asset);
 
   const std::uint64_t index_offset = kHeaderSize;  // 48: 8-aligned

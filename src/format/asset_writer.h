@@ -41,6 +41,12 @@ struct ElementData {
   double error_estimate = 0.0;
 };
 
+/// A point where the builder's host failed.
+struct InfeasibleInfo {
+  std::vector<double> x;  ///< K values, real coordinates
+  std::string message;
+};
+
 struct AssetContent {
   std::vector<ParameterInfo> parameters;  ///< K, in the basis' direction order
   const core::CompiledBasis* basis = nullptr;
@@ -48,6 +54,7 @@ struct AssetContent {
   std::vector<RegionInfo> regions;
   std::vector<ElementData> elements;  ///< one per basis element, in its order
   std::string builder_version, host, options_json;
+  std::vector<InfeasibleInfo> infeasible;  ///< host failures, in the builder's order
 };
 
 struct WriteOptions {

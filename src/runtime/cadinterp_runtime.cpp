@@ -1,7 +1,7 @@
 // The C ABI of include/cadinterp/cadinterp.h over the asset reader (src/format), the compiled
 // basis (src/core) and the runtime kernels (blend: blend_multi.h, measured against the bandwidth
-// probe of bandwidth_probe.h; mass properties: mesh_metrics.h). Every exported body runs inside CADINTERP_GUARD, which maps exceptions to
-// status codes: nothing crosses the ABI.
+// probe of bandwidth_probe.h; mass properties: mesh_metrics.h). Every exported body runs inside
+// CADINTERP_GUARD, which maps exceptions to status codes: nothing crosses the ABI.
 #include "cadinterp/cadinterp.h"
 
 #include <algorithm>
@@ -233,6 +233,8 @@ struct cadinterp_asset {
   std::vector<FieldSlot> fields;
   std::vector<RegionSlot> regions;
   std::string builder_version, host, options;
+  std::vector<std::vector<double>> infeasible_x;  // host failures recorded by the builder
+  std::vector<std::string> infeasible_message;
   mutable ElementCache cache;
 };
 
@@ -307,6 +309,11 @@ cadinterp_status open_with(
       a->host = p->host() ? p->host()->str() : "";
       a->options = p->options() ? p->options()->str() : "";
     }
+    if (const auto* inf = idx.infeasible())
+      for (const auto* f : *inf) {
+        a->infeasible_x.emplace_back(f->x()->begin(), f->x()->end());
+        a->infeasible_message.push_back(f->message() ? f->message()->str() : "");
+      }
     *out = a.release();
     return CADINTERP_OK;
   } catch (const cadinterp::format::FormatError& e) {
@@ -539,6 +546,20 @@ cadinterp_status cadinterp_region(const cadinterp_asset* a, int i, cadinterp_reg
 cadinterp_status cadinterp_get_provenance(const cadinterp_asset* a, cadinterp_provenance* out) {
   if (!a || !out) return CADINTERP_E_INVALID_ARGUMENT;
   *out = {a->builder_version.c_str(), a->host.c_str(), a->options.c_str()};
+  return CADINTERP_OK;
+}
+
+int cadinterp_infeasible_point_count(const cadinterp_asset* a) {
+  return a ? static_cast<int>(a->infeasible_x.size()) : 0;
+}
+
+cadinterp_status cadinterp_infeasible_point(const cadinterp_asset* a, int i, double* x,
+                                            const char** message) {
+  if (!a || i < 0 || i >= static_cast<int>(a->infeasible_x.size()) || !x)
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const auto& p = a->infeasible_x[static_cast<std::size_t>(i)];
+  std::copy(p.begin(), p.end(), x);
+  if (message) *message = a->infeasible_message[static_cast<std::size_t>(i)].c_str();
   return CADINTERP_OK;
 }
 
