@@ -255,18 +255,14 @@ class MeshProblem final : public core::AdaptiveProblem {
         std::min<std::size_t>(q.size(), static_cast<std::size_t>(std::max(1, exec_.concurrency())));
     if (threads <= 1) return AdaptiveProblem::errors(q, out);
     std::atomic<std::size_t> next{0};
-    std::exception_ptr error;
-    std::mutex error_mu;
+    std::exception_ptr failure;
+    std::mutex failure_mu;
     auto work = [&] {
       try {
-        for (std::size_t i; (i = next.fetch_add(1)) < q.size();)
-          out[i] = q[i].midpoint
-                       ? midpoint_error(q[i].terms[0], q[i].terms[1], q[i].at)
-                       : interpolation_error(q[i].at, q[i].centre, q[i].terms.data(),
-                                             q[i].psi.data(), static_cast<int>(q[i].terms.size()));
+        for (std::size_t i; (i = next.fetch_add(1)) < q.size();) out[i] = error(q[i]);
       } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mu);
-        if (!error) error = std::current_exception();
+        std::lock_guard<std::mutex> lock(failure_mu);
+        if (!failure) failure = std::current_exception();
         next = q.size();
       }
     };
@@ -274,7 +270,7 @@ class MeshProblem final : public core::AdaptiveProblem {
     for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
     work();
     for (auto& t : pool) t.join();
-    if (error) std::rethrow_exception(error);
+    if (failure) std::rethrow_exception(failure);
   }
 
   /// Calls the progress callback; returns true to cancel.

@@ -25,14 +25,15 @@ bool AdaptiveProblem::ErrorQuery::operator<(const ErrorQuery& o) const {
          std::tie(o.midpoint, o.at, o.centre, o.terms, o.psi);
 }
 
+double AdaptiveProblem::error(const ErrorQuery& q) {
+  return q.midpoint ? midpoint_error(q.terms[0], q.terms[1], q.at)
+                    : interpolation_error(q.at, q.centre, q.terms.data(), q.psi.data(),
+                                          static_cast<int>(q.terms.size()));
+}
+
 void AdaptiveProblem::errors(const std::vector<ErrorQuery>& queries, std::vector<double>& out) {
   out.resize(queries.size());
-  for (std::size_t i = 0; i < queries.size(); ++i) {
-    const ErrorQuery& q = queries[i];
-    out[i] = q.midpoint ? midpoint_error(q.terms[0], q.terms[1], q.at)
-                        : interpolation_error(q.at, q.centre, q.terms.data(), q.psi.data(),
-                                              static_cast<int>(q.terms.size()));
-  }
+  for (std::size_t i = 0; i < queries.size(); ++i) out[i] = error(queries[i]);
 }
 
 namespace {

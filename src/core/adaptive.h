@@ -100,6 +100,8 @@ class AdaptiveProblem {
   /// them in parallel (its error functions must then be thread-safe). Errors are pure functions
   /// of their arguments, so the order never changes a result.
   virtual void errors(const std::vector<ErrorQuery>& queries, std::vector<double>& out);
+  /// One query's error (interpolation_error or midpoint_error): what errors() computes per query.
+  double error(const ErrorQuery& q);
 };
 
 struct AdaptiveRun {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -103,6 +104,9 @@ struct CachedElement {
   mutable std::mutex fields_mu;
   mutable std::atomic<bool> fields_ready{false};
   mutable std::vector<DecodedArray<float>> fields;
+  // Largest |value| over all position arrays, measured by the first call that needs it (-1:
+  // not yet); racing threads store the same value.
+  mutable std::atomic<float> positions_max_abs{-1.0f};
 };
 
 // Least-recently-used cache of decoded elements under a byte budget. Elements are shared_ptrs:
@@ -391,16 +395,55 @@ cadinterp_status prepare(cadinterp_workspace* ws, const double* x, const int* fi
   return CADINTERP_OK;
 }
 
-// Whether n floats are all finite: the largest magnitude's bits below the exponent of inf, as
-// an integer max that vectorizes (std::isfinite per value does not).
+// Whether n floats are all finite: v * 0 is 0 for finite v and NaN for inf or NaN, so the
+// per-lane sums below are NaN exactly when some value is not finite. Lanes are independent
+// (a compile-time block, restrict parameters), so GCC vectorizes it at -O2 with SSE2; this
+// runs after every blend and must cost a fraction of the blend's memory traffic.
+template <std::size_t L>
+inline void zero_products(float* __restrict acc, const float* __restrict v) {
+  for (std::size_t k = 0; k < L; ++k) acc[k] += v[k] * 0.0f;
+}
 bool finite_floats(const float* v, std::size_t n) {
-  std::uint32_t worst = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t b;
-    std::memcpy(&b, &v[i], 4);
-    worst = std::max(worst, b & 0x7fffffffu);
+  constexpr std::size_t kLanes = 32;
+  float acc[kLanes] = {};
+  std::size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes) zero_products<kLanes>(acc, v + i);
+  float sum = 0.0f;
+  for (; i < n; ++i) sum += v[i] * 0.0f;
+  for (float a : acc) sum += a;
+  return sum == 0.0f;
+}
+
+// Largest |v| over n floats, in independent lanes so that it vectorizes (see finite_floats).
+template <std::size_t L>
+inline void max_abs_block(float* __restrict acc, const float* __restrict v) {
+  for (std::size_t k = 0; k < L; ++k) acc[k] = std::max(acc[k], std::fabs(v[k]));
+}
+float max_abs(const float* v, std::size_t n) {
+  constexpr std::size_t kLanes = 32;
+  float acc[kLanes] = {};
+  std::size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes) max_abs_block<kLanes>(acc, v + i);
+  float m = 0.0f;
+  for (; i < n; ++i) m = std::max(m, std::fabs(v[i]));
+  for (float a : acc) m = std::max(m, a);
+  return m;
+}
+
+// Whether a blend of the element's position arrays with these weights cannot overflow: every
+// output is at most sum_t |w_t| * max|p| (float rounding adds far less than the factor 4 of
+// margin). Costs O(terms) per call once the element's max|p| is known (one pass, on the first
+// call after a cell switch), instead of a pass over every output.
+bool positions_blend_bounded(const CachedElement& el, const float* weights, int terms) {
+  float m = el.positions_max_abs.load(std::memory_order_relaxed);
+  if (m < 0.0f) {
+    m = 0.0f;
+    for (const auto& p : el.mesh.positions) m = std::max(m, max_abs(p.data(), p.size()));
+    el.positions_max_abs.store(m, std::memory_order_relaxed);
   }
-  return worst < 0x7f800000u;
+  double w = 0.0;
+  for (int t = 0; t < terms; ++t) w += std::fabs(static_cast<double>(weights[t]));
+  return w * static_cast<double>(m) <= 0.25 * static_cast<double>(FLT_MAX);
 }
 
 // Every stored value is finite (the reader checks), yet blends of values near the float range,
@@ -621,7 +664,9 @@ cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x, const 
     const std::size_t nv = d.vertex_count, nt = topo.tets.size() / 4;
     ws->positions.resize(nv * 3);
     blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
-    if (!finite_floats(ws->positions.data(), nv * 3)) return overflow(ws);
+    if (!positions_blend_bounded(*ws->element, ws->weights.data(), w.count) &&
+        !finite_floats(ws->positions.data(), nv * 3))
+      return overflow(ws);
     ws->field_values.resize(static_cast<std::size_t>(field_count));
     ws->field_ptrs.resize(static_cast<std::size_t>(field_count));
     for (int i = 0; i < field_count; ++i) {
@@ -674,8 +719,11 @@ cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x, const 
     for (std::size_t t = 0; t < nterm; ++t) ws->arrays[t] = d.positions[t].data();
     cadinterp::runtime::blend_arrays_multi(ws->arrays.data(), ws->weights.data(), w.count, nv * 3,
                                            K + 1, outs);
-    if (!finite_floats(ws->positions.data(), nv * 3) ||
-        !finite_floats(ws->dpositions.data(), static_cast<std::size_t>(K) * nv * 3))
+    bool bounded = true;
+    for (int k = 0; k <= K && bounded; ++k)
+      bounded = positions_blend_bounded(*ws->element, ws->weights.data() + k * w.count, w.count);
+    if (!bounded && (!finite_floats(ws->positions.data(), nv * 3) ||
+                     !finite_floats(ws->dpositions.data(), static_cast<std::size_t>(K) * nv * 3)))
       return overflow(ws);
     ws->field_grads.resize(static_cast<std::size_t>(field_count));
     ws->field_grad_ptrs.resize(static_cast<std::size_t>(field_count));
