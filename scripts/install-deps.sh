@@ -25,6 +25,14 @@ PACKAGES=(
   binutils              # nm: the export check of libcadinterp
   clang                 # libFuzzer target (scripts/fuzz.sh)
   libclang-rt-14-dev
+  libocct-foundation-dev            # the OpenCASCADE example host (B-rep kernel)
+  libocct-modeling-data-dev
+  libocct-modeling-algorithms-dev
+  libtet1.5-dev                     # TetGen: tetrahedralization in the OpenCASCADE host
+  libsuitesparse-dev                # CHOLMOD: the FEM physics' direct solver
+  libcpp-httplib-dev                # `cadinterp explore`'s embedded HTTP server
+  emscripten                        # the WebAssembly runtime (bindings/wasm)
+  chromium                          # the explorer's end-to-end tests (headless)
 )
 
 missing=()

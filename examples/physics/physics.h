@@ -1,0 +1,95 @@
+// Finite-element physics for the example hosts: linear elasticity, steady heat conduction and
+// their one-way thermoelastic coupling on tetrahedral meshes. A host's simulate callback calls
+// solve() on the mesh it regenerated; boundary conditions are attached to the mesh's face tags
+// (the B-rep faces), so a fixture or a load stays on the same CAD face whatever the mesh.
+//
+// Units are the caller's, consistent (e.g. mm, N, MPa, K, W). Errors are thrown as
+// physics::Error with a message naming the problem (no fixture, an unknown tag, a singular
+// system); solve() never returns a partial solution.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace cadinterp::physics {
+
+struct Error : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// A tet mesh as a host regenerates it (cadinterp_host_mesh): positive tets, outward boundary
+/// triangles, one face tag per boundary triangle.
+struct TetMesh {
+  std::vector<double> vertices;             ///< #V by 3
+  std::vector<std::uint32_t> tets;          ///< #T by 4
+  std::vector<std::uint32_t> triangles;     ///< #F by 3
+  std::vector<std::int32_t> triangle_tags;  ///< #F
+};
+
+struct Material {
+  double youngs_modulus = 210e3;  ///< E (MPa with mm)
+  double poisson_ratio = 0.3;     ///< nu, in [0, 0.5)
+  double conductivity = 50.0;     ///< k (W/(mm K) or the caller's unit)
+  double thermal_expansion = 12e-6;  ///< alpha (1/K)
+  double reference_temperature = 0.0;  ///< temperature of zero thermal strain
+};
+
+/// Boundary conditions, each on the boundary triangles whose tag is in `tags`.
+struct Fixed {            ///< displacement components fixed to zero
+  std::vector<std::int32_t> tags;
+  bool axes[3] = {true, true, true};  ///< which components (all: a clamp)
+};
+struct Force {  ///< a total force spread over the region's area as a uniform traction
+  std::vector<std::int32_t> tags;
+  double force[3] = {0, 0, 0};
+};
+struct Pressure {  ///< normal pressure, positive pushing into the solid
+  std::vector<std::int32_t> tags;
+  double pressure = 0.0;
+};
+struct Temperature {  ///< prescribed temperature (Dirichlet)
+  std::vector<std::int32_t> tags;
+  double temperature = 0.0;
+};
+struct HeatFlux {  ///< heat flux into the solid per unit area (Neumann)
+  std::vector<std::int32_t> tags;
+  double flux = 0.0;
+};
+struct Convection {  ///< Robin: q = h (T_ambient - T) into the solid
+  std::vector<std::int32_t> tags;
+  double coefficient = 0.0, ambient = 0.0;
+};
+
+struct Problem {
+  TetMesh mesh;
+  Material material;
+  bool elastic = true;   ///< solve linear elasticity (needs at least one Fixed)
+  bool thermal = false;  ///< solve steady conduction (needs Temperature or Convection)
+  /// When both are solved, the temperature field loads the elastic problem with the thermal
+  /// strain alpha (T - T_ref) I.
+  std::vector<Fixed> fixed;
+  std::vector<Force> forces;
+  std::vector<Pressure> pressures;
+  std::vector<Temperature> temperatures;
+  std::vector<HeatFlux> heat_fluxes;
+  std::vector<Convection> convections;
+  int order = 1;  ///< element order: 1 (linear tets) or 2 (quadratic, edge nodes added inside)
+};
+
+struct Solution {
+  std::vector<double> displacement;  ///< #V by 3 (empty unless elastic)
+  std::vector<double> von_mises;     ///< #V, stresses recovered at the mesh vertices
+  std::vector<double> stress;        ///< #V by 6 (xx, yy, zz, yz, xz, xy) at the vertices
+  std::vector<double> temperature;   ///< #V (empty unless thermal)
+  // What it cost, for the host's per-stage report.
+  std::size_t dofs = 0;
+  double assemble_seconds = 0.0, solve_seconds = 0.0;
+  std::string solver;  ///< the linear solver used (e.g. "cholmod", "eigen-cg")
+};
+
+/// Solves the problem. Throws Error on invalid input or a singular system.
+Solution solve(const Problem& problem);
+
+}  // namespace cadinterp::physics
