@@ -31,7 +31,8 @@ PACKAGES=(
   libtet1.5-dev                     # TetGen: tetrahedralization in the OpenCASCADE host
   libsuitesparse-dev                # CHOLMOD: the FEM physics' direct solver
   libcpp-httplib-dev                # `cadinterp explore`'s embedded HTTP server
-  emscripten                        # the WebAssembly runtime (bindings/wasm)
+  emscripten                        # the WebAssembly runtime (bindings/wasm); its codec sources
+                                    # come from Debian source packages (fetch-wasm-sources.sh)
   chromium                          # the explorer's end-to-end tests (headless)
 )
 

@@ -4,6 +4,7 @@
 #   release the full suite (unit + property tests) and a benchmark smoke run
 #   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan    the tests labelled 'concurrency' under ThreadSanitizer
+#   wasm    the runtime in WebAssembly: its JS API under Node against the conformance cases
 #   fuzz    the libFuzzer targets (open+eval, every C ABI call, every codec) side by side for 30 s
 #           (clang, ASan + UBSan), seeded from conformance and encoder outputs
 set -euo pipefail
@@ -36,6 +37,10 @@ step "tsan: ThreadSanitizer, concurrency tests"
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan -j "$JOBS"
 ctest --preset tsan -j "$JOBS" -L concurrency
+
+step "wasm: build the WebAssembly runtime, run its Node tests"
+scripts/test-wasm.sh 2>&1 | grep -E '^# (tests|pass|fail|skipped)'
+test "${PIPESTATUS[0]}" -eq 0
 
 step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
 scripts/fuzz.sh 30 2>&1 | tail -3
