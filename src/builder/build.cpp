@@ -17,6 +17,9 @@
 #include "builder/surface_distance.h"
 #include "cadinterp/cadinterp_version.h"
 #include "core/adaptive.h"
+#ifdef CADINTERP_HAVE_MAPPING
+#include "mapping/mesh_mapper.h"
+#endif
 
 namespace cadinterp::builder {
 
@@ -346,6 +349,16 @@ std::string store_fingerprint(const Host& host) {
   return fp;
 }
 
+const Mapper& default_mapper() {
+#ifdef CADINTERP_HAVE_MAPPING
+  static const mapping::MeshMapper mesh;
+  return mesh;
+#else
+  static const IdentityMapper identity;
+  return identity;
+#endif
+}
+
 std::string options_json(const BuildOptions& o, const char* mapper_name) {
   return std::string("{\"degree\":") + std::to_string(static_cast<int>(o.degree)) +
          ",\"geometry_tolerance\":\"" + hex_double(o.geometry_tolerance) +
@@ -369,8 +382,7 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
 
   BuildResult out;
   cadinterp_build_report& rep = out.report;
-  const IdentityMapper identity;
-  const Mapper& mapper = opt.mapper ? *opt.mapper : identity;
+  const Mapper& mapper = opt.mapper ? *opt.mapper : default_mapper();
   const int threads = opt.threads > 0
                           ? opt.threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

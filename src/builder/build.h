@@ -47,7 +47,7 @@ struct BuildOptions {
   double position_max_abs_error = 0.0;
   /// Called after every delivered sample; returns true to cancel.
   std::function<bool(const cadinterp_progress&)> progress;
-  const Mapper* mapper = nullptr;  ///< nullptr: IdentityMapper
+  const Mapper* mapper = nullptr;  ///< nullptr: default_mapper()
   Executor* executor = nullptr;    ///< nullptr: a ThreadPoolExecutor with `threads`
 };
 
@@ -63,6 +63,11 @@ struct BuildResult {
   std::vector<InfeasiblePoint> infeasible;
   cadinterp_build_report report{};
 };
+
+/// The mapper a build uses unless BuildOptions::mapper says otherwise: the mesh mapper of paper
+/// §6 (src/mapping) when the mapping component is built, else IdentityMapper. Either way,
+/// samples of equal combinatorics are blended vertex by vertex without calling it.
+const Mapper& default_mapper();
 
 /// Runs the build. Throws BuildCancelled, BuildInfeasible, StoreError (sample_store.h),
 /// std::invalid_argument (options).

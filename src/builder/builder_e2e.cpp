@@ -45,7 +45,7 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
 }
 
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
-                                unsigned seed) {
+                                unsigned seed, const FieldTruthAt& field_truth) {
   cadinterp_asset* raw = nullptr;
   if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
     throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
@@ -90,6 +90,27 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
     geo.push_back(symmetric_hausdorff(V, F, truth.vertices, truth.triangles) /
                   truth.bbox_diagonal());
+    if (field_truth) {
+      double e = 0;
+      for (std::size_t k = 0; k < fields.size(); ++k) {
+        const auto fi = static_cast<std::size_t>(fields[k]);
+        if (fi >= truth.fields.size()) continue;
+        const std::vector<double>& tv = truth.fields[fi].values;
+        const auto mm = std::minmax_element(tv.begin(), tv.end());
+        const double range = std::max(*mm.second - *mm.first, 1e-300);
+        const auto C = static_cast<std::size_t>(truth.fields[fi].components);
+        std::vector<double> value(C);
+        for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
+          const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
+          if (!field_truth(fields[k], x.data(), p, value.data())) continue;
+          for (std::size_t c = 0; c < C; ++c)
+            e = std::max(e,
+                         std::abs(static_cast<double>(m.fields[k][v * C + c]) - value[c]) / range);
+        }
+      }
+      fld.push_back(e);
+      continue;
+    }
     const bool same = truth.vertex_count() == m.vertex_count && truth.tet_count() == m.tet_count &&
                       std::equal(truth.tets.begin(), truth.tets.end(), m.tets);
     if (!same) continue;

@@ -3,6 +3,7 @@
 // host's own answer at random parameter points (the paper's Table 2, ours).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,12 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
 /// geometry by the symmetric Hausdorff distance of the boundary surfaces (meshes may differ in
 /// combinatorics), per-vertex fields at the closest true vertex to each evaluated vertex.
 /// Throws std::runtime_error when the asset cannot be opened or a feasible eval fails.
+/// When `truth` is given (field index in the asset, x, a point, out: its components; false if
+/// unknown), per-vertex fields are compared with it at the evaluated vertex positions instead,
+/// at every point whatever the mesh: a mapped mesh's vertices may slide within a face (§6), so
+/// vertex i of the asset and of the host's mesh need not be the same point.
+using FieldTruthAt = std::function<bool(int field, const double* x, const double* p, double* v)>;
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
-                                unsigned seed);
+                                unsigned seed, const FieldTruthAt& truth = nullptr);
 
 }  // namespace cadinterp::builder

@@ -353,10 +353,44 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
   const std::string path = temp_path("vary.cadi");
   const Built r = build(h, small_options(), path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
-  // Elements whose samples straddle x0 = 0.5 cannot be mapped by the identity hook.
+  // Elements whose samples straddle x0 = 0.5 differ in combinatorics, and the box host gives no
+  // control points, so the mesh mapper (paper §6 matches meshes through references only) refuses
+  // them: they become infeasible with its message, never blended vertex by vertex.
   EXPECT_GT(r.report.infeasible_elements, 0);
   EXPECT_LT(r.report.infeasible_elements, r.report.elements);
   std::filesystem::remove(path);
+
+  // The same through build(): each infeasible element carries the mapper's message, whichever
+  // mapper it is.
+  struct Refusing final : builder::Mapper {
+    bool map(const Sample&, const Sample&, builder::MappedSample&,
+             std::string& why) const override {
+      why = "refused by the test mapper";
+      return false;
+    }
+    const char* name() const override { return "refusing"; }
+  } refusing;
+  const builder::Host host(h.host);
+  for (const builder::Mapper* mapper :
+       {&builder::default_mapper(), static_cast<const builder::Mapper*>(&refusing)}) {
+    builder::BuildOptions o;
+    o.geometry_tolerance = 2e-3;
+    o.field_tolerance = 2e-2;
+    o.max_samples = 60;
+    o.threads = 2;
+    o.mapper = mapper;
+    const builder::BuildResult b = builder::build(host, o);
+    EXPECT_GT(b.report.infeasible_elements, 0);
+    ASSERT_FALSE(b.infeasible.empty());
+    const std::string expected = mapper == &refusing ? "refused by the test mapper"
+#ifdef CADINTERP_HAVE_MAPPING
+                                                     : "no control point with the same ID";
+#else
+                                                     : "identity mapper maps equal";
+#endif
+    for (const builder::InfeasiblePoint& p : b.infeasible)
+      EXPECT_NE(p.message.find(expected), std::string::npos) << p.message;
+  }
 }
 
 TEST(Build, RejectsBadArgumentsWithNamedErrors) {

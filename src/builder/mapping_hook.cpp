@@ -6,7 +6,8 @@ bool IdentityMapper::map(const Sample& source, const Sample& canonical, MappedSa
                          std::string& why) const {
   if (!same_combinatorics(source, canonical)) {
     why = "meshes differ in combinatorics (" + std::to_string(source.vertex_count()) + " vs " +
-          std::to_string(canonical.vertex_count()) + " vertices) and no mesh mapping is installed";
+          std::to_string(canonical.vertex_count()) +
+          " vertices); the identity mapper maps equal combinatorics only";
     return false;
   }
   out.vertices = source.vertices;

@@ -30,7 +30,8 @@ class Mapper {
 };
 
 /// The mapping where combinatorics agree: vertex i is vertex i. Fails otherwise, naming the
-/// difference, since any other correspondence needs the references (§6).
+/// difference, since any other correspondence needs the references (§6, src/mapping's
+/// MeshMapper, the builder's default: build.h default_mapper()).
 class IdentityMapper final : public Mapper {
  public:
   bool map(const Sample& source, const Sample& canonical, MappedSample& out,

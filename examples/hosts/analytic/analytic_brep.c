@@ -15,13 +15,6 @@
 
 #include "analytic_internal.h"
 
-/* The axis along which edge e runs (its ends differ in exactly that grid index). */
-static int edge_axis(const analytic_brep* b, const analytic_brep_edge* e) {
-  const int* a = b->vertices[e->ends[0]].index;
-  const int* c = b->vertices[e->ends[1]].index;
-  return a[0] != c[0] ? 0 : (a[1] != c[1] ? 1 : 2);
-}
-
 /* Ends ordered by vertex id: the direction of the edge's parameter. */
 static void edge_ends(const analytic_brep* b, const analytic_brep_edge* e, int* from, int* to) {
   const int u = e->ends[0], v = e->ends[1];
@@ -30,23 +23,34 @@ static void edge_ends(const analytic_brep* b, const analytic_brep_edge* e, int* 
   *to = swap ? u : v;
 }
 
-/* The point at grid coordinate numer / denom along `axis` from grid vertex `base` (other axes
- * as in base), linear between the two grid vertices around it: a point of the mesh edge. */
+/* Grid steps from vertex `from` to `to`: the unit step (each component -1, 0 or 1) and their
+ * count. An edge runs along a grid axis, or along a diagonal of the grid (the same number of
+ * steps on each axis it moves along; the foldplate's crease). */
+static int edge_steps(const analytic_brep* b, int from, int to, int dir[3]) {
+  int a, span = 0;
+  for (a = 0; a < 3; ++a) {
+    const int d = b->vertices[to].index[a] - b->vertices[from].index[a];
+    dir[a] = (d > 0) - (d < 0);
+    if (abs(d) > span) span = abs(d);
+  }
+  return span;
+}
+
+/* The point numer / denom grid steps along `dir` from grid vertex `base`, linear between the
+ * two grid vertices around it: a point of the mesh edge. */
 static void grid_point(const analytic_shape* s, const double* positions, const int base[3],
-                       int axis, long numer, long denom, double p[3]) {
-  int q[3];
+                       const int dir[3], long numer, long denom, double p[3]) {
+  int q[3], c;
   const long i0 = numer / denom; /* numer >= 0 */
   const double frac = (double)(numer - i0 * denom) / (double)denom;
   const double* a;
-  int c;
-  memcpy(q, base, sizeof(q));
-  q[axis] = (int)i0;
+  for (c = 0; c < 3; ++c) q[c] = base[c] + dir[c] * (int)i0;
   a = &positions[3 * analytic_grid_vertex(s->n, q[0], q[1], q[2])];
   if (frac == 0.0) {
     memcpy(p, a, 3 * sizeof(double));
     return;
   }
-  q[axis] = (int)i0 + 1;
+  for (c = 0; c < 3; ++c) q[c] += dir[c];
   {
     const double* b = &positions[3 * analytic_grid_vertex(s->n, q[0], q[1], q[2])];
     for (c = 0; c < 3; ++c) p[c] = (1.0 - frac) * a[c] + frac * b[c];
@@ -86,10 +90,8 @@ cadinterp_status analytic_shape_references(const analytic_shape* s, const double
   for (d = 0; d < levels; ++d)
     id_total += (size_t)b->edge_count * ((size_t)1 << d) * (5 + (size_t)d);
   for (e = 0; e < b->edge_count; ++e) {
-    const analytic_brep_edge* edge = &b->edges[e];
-    const int axis = edge_axis(b, edge);
-    const int span =
-        abs(b->vertices[edge->ends[1]].index[axis] - b->vertices[edge->ends[0]].index[axis]);
+    int dir[3];
+    const int span = edge_steps(b, b->edges[e].ends[0], b->edges[e].ends[1], dir);
     /* two ends per path, plus the grid vertices strictly inside the edge, each inside one path */
     path_rows += 2 * (size_t)segments + (size_t)(span - 1);
   }
@@ -120,15 +122,13 @@ cadinterp_status analytic_shape_references(const analytic_shape* s, const double
 
   for (e = 0; e < b->edge_count; ++e) {
     const analytic_brep_edge* edge = &b->edges[e];
-    const int axis = edge_axis(b, edge);
-    int from, to;
-    long m, start, step;
+    int from, to, dir[3];
+    long m, step;
     int base[3];
     const size_t first_sample = point;
     edge_ends(b, edge, &from, &to);
     memcpy(base, b->vertices[from].index, sizeof(base));
-    start = (long)base[axis] * segments;
-    step = (long)(b->vertices[to].index[axis] - base[axis]); /* grid cells per 1/segments */
+    step = edge_steps(b, from, to, dir); /* grid steps per 1/segments of the edge */
 
     for (m = 1; m < segments; ++m) {
       long tz = 0, q;
@@ -143,15 +143,13 @@ cadinterp_status analytic_shape_references(const analytic_shape* s, const double
       r.point_ids[id_at++] = hi;
       r.point_ids[id_at++] = -1;
       for (; d > 0; --d) r.point_ids[id_at++] = (q >> (d - 1)) & 1;
-      grid_point(s, positions, base, axis, start + m * step, segments,
-                 &r.point_positions[3 * point]);
+      grid_point(s, positions, base, dir, m * step, segments, &r.point_positions[3 * point]);
       ++point;
     }
 
     for (m = 0; m < segments; ++m) {
-      /* grid coordinates (times `segments`) of the path's ends */
-      const long a = start + m * step, c = start + (m + 1) * step;
-      const long dir = step > 0 ? 1 : -1;
+      /* grid steps from `base` (times `segments`) of the path's ends */
+      const long a = m * step, c = (m + 1) * step;
       long g;
       r.path_points[2 * path] = m == 0 ? (size_t)from : first_sample + (size_t)(m - 1);
       r.path_points[2 * path + 1] = m + 1 == segments ? (size_t)to : first_sample + (size_t)m;
@@ -159,11 +157,9 @@ cadinterp_status analytic_shape_references(const analytic_shape* s, const double
       memcpy(&r.path_vertices[3 * row++], &r.point_positions[3 * r.path_points[2 * path]],
              3 * sizeof(double));
       /* grid vertices strictly between a and c, in the path's direction */
-      g = dir > 0 ? a / segments + 1 : (a + segments - 1) / segments - 1;
-      for (; dir > 0 ? g * segments < c : g * segments > c; g += dir) {
-        int q[3];
-        memcpy(q, base, sizeof(q));
-        q[axis] = (int)g;
+      for (g = a / segments + 1; g * segments < c; ++g) {
+        int q[3], k;
+        for (k = 0; k < 3; ++k) q[k] = base[k] + dir[k] * (int)g;
         memcpy(&r.path_vertices[3 * row++],
                &positions[3 * analytic_grid_vertex(s->n, q[0], q[1], q[2])], 3 * sizeof(double));
       }

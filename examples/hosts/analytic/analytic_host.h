@@ -5,7 +5,9 @@
  * Models (README.md has parameters, units and ranges):
  *   "bracket" (default): a bent sheet-metal bracket whose mesh combinatorics never change;
  *   "plate": a cantilever plate whose mesh resolution follows its size, so its vertex count
- *            changes across the parameter box.
+ *            changes across the parameter box;
+ *   "foldplate": the plate whose top face folds along its diagonal when fold > 0, so its B-rep
+ *            topology changes too (a 13th edge, a 7th face).
  *
  * Only cadinterp_host_entry is exported from the shared library. The analytic_model_* functions
  * are what the host's callbacks are thin wrappers of; tests link the static library and call them
@@ -34,9 +36,10 @@ extern "C" {
 
 /**
  * The library's entry point (cadinterp_host_entry_fn, CADINTERP_HOST_ENTRY_NAME).
- * @param[in] model    "bracket", "plate"; NULL or "" is "bracket"
+ * @param[in] model    "bracket", "plate", "foldplate"; NULL or "" is "bracket"
  * @param[in] options  "key=value" pairs separated by ','; NULL or "": defaults. Keys:
- *                     cells=N (bracket, 1..64), edge=MM (plate, 0.5..100, up to 3 decimals),
+ *                     cells=N (bracket, 1..64), edge=MM (plate, foldplate, 0.5..100, up to 3
+ *                     decimals),
  *                     levels=D (0..6 edge subdivision levels), fail_region=0|1
  * @param[out] error   on failure, a static message (may be NULL)
  * @return a host valid until the library is unloaded (the same host for the same model and

@@ -446,6 +446,64 @@ TEST(AnalyticPlate, ResolutionFollowsSizeAndIdsDoNot) {
   EXPECT_EQ(mesh.m.vertex_count, 15u * 9u * 2u);
 }
 
+// The foldplate's B-rep topology changes at fold = 0: a crease edge (id 13) and a 7th face
+// appear; the crease's end vertices (ids 5 and 8) change IDs, every other ID stays.
+TEST(AnalyticFoldplate, TopologyChangesAtZeroFoldAndOnlyChangedEntitiesChangeIds) {
+  ModelPtr model = make_model("foldplate", "edge=6");
+  const double flat_x[4] = {70, 40, 6, -0.3}, fold_x[4] = {70, 40, 6, 0.5};
+  Mesh flat, fold;
+  ASSERT_EQ(analytic_model_mesh(model.get(), flat_x, &flat.m, nullptr), CADINTERP_OK);
+  ASSERT_EQ(analytic_model_mesh(model.get(), fold_x, &fold.m, nullptr), CADINTERP_OK);
+  check_mesh(flat, all_tags("plate"), "flat");
+  std::set<int32_t> seven = all_tags("plate");
+  seven.insert(7);
+  check_mesh(fold, seven, "folded");
+  // The rising half lies where x / length >= y / width, and rises to fold * thickness.
+  double top = 0;
+  for (std::size_t f = 0; f < fold.m.triangle_count; ++f) {
+    if (fold.m.triangle_tags[f] != 7) continue;
+    for (int k = 0; k < 3; ++k) {
+      const double* p = fold.v(fold.m.triangles[3 * f + std::size_t(k)]);
+      EXPECT_GE(p[0] / 70.0, p[1] / 40.0 - 1e-12);
+      top = std::max(top, p[2]);
+    }
+  }
+  EXPECT_DOUBLE_EQ(top, 6.0 + 0.5 * 6.0);
+
+  References a, b;
+  ASSERT_EQ(analytic_model_references(model.get(), flat_x, &a.r, nullptr), CADINTERP_OK);
+  ASSERT_EQ(analytic_model_references(model.get(), fold_x, &b.r, nullptr), CADINTERP_OK);
+  std::set<std::vector<int64_t>> ia, ib;
+  for (std::size_t p = 0; p < a.r.point_count; ++p) ia.insert(a.id(p));
+  for (std::size_t p = 0; p < b.r.point_count; ++p) ib.insert(b.id(p));
+  std::vector<std::vector<int64_t>> only_flat, only_fold;
+  std::set_difference(ia.begin(), ia.end(), ib.begin(), ib.end(), std::back_inserter(only_flat));
+  std::set_difference(ib.begin(), ib.end(), ia.begin(), ia.end(), std::back_inserter(only_fold));
+  ASSERT_EQ(only_flat.size(), 2u);
+  EXPECT_EQ(only_flat[0][1], 5);
+  EXPECT_EQ(only_flat[1][1], 8);
+  ASSERT_EQ(only_fold.size(), 5u);  // the two vertices, with edge 13, and the crease's 3 samples
+  for (const auto& id : only_fold) {
+    if (id[0] == 0) {
+      EXPECT_EQ(id.size(), 6u);
+      EXPECT_EQ(id.back(), 13);
+    } else {
+      EXPECT_EQ(id[1], 13);
+      EXPECT_EQ(id[2], 5);
+      EXPECT_EQ(id[3], 8);
+    }
+  }
+  // The crease's points lie on mesh vertices or edges along the diagonal x / length = y / width.
+  for (std::size_t p = 0; p < b.r.point_count; ++p) {
+    const std::vector<int64_t> id = b.id(p);
+    if (id[0] != 1 || id[1] != 13) continue;
+    const double* q = &b.r.point_positions[3 * p];
+    EXPECT_NEAR(q[0] / 70.0, q[1] / 40.0, 1e-12);
+    EXPECT_NEAR(q[2], 6.0, 1e-12);
+  }
+  EXPECT_EQ(b.r.path_count, a.r.path_count + 4);
+}
+
 TEST(AnalyticPlate, EdgeSamplesAreDyadicPoints) {
   ModelPtr model = make_model("plate", "edge=7");
   const double x[3] = {100, 20, 2};

@@ -14,14 +14,15 @@
 
 #include "analytic_host.h"
 
-enum { ANALYTIC_BRACKET = 0, ANALYTIC_PLATE = 1 };
+enum { ANALYTIC_BRACKET = 0, ANALYTIC_PLATE = 1, ANALYTIC_FOLDPLATE = 2 };
 
 /* The option ranges (analytic_models.c) keep a grid below a million cells, so every index fits
  * uint32 and every size computation size_t. */
 struct analytic_model {
   int kind;
   int cells;       /* bracket: mesh density */
-  long edge_um;    /* plate: target edge length in micrometres (integers keep identity exact) */
+  long edge_um;    /* plate, foldplate: target edge length in micrometres (integers keep
+                     identity exact) */
   int levels;      /* edge subdivision levels of the control points */
   int fail_region; /* nonzero: infeasible corner of the box */
   char identity[160];
@@ -33,9 +34,9 @@ typedef struct analytic_brep_vertex {
   int index[3];
 } analytic_brep_vertex;
 
-/* One straight B-rep edge along a grid axis between two vertices (indices into the vertex list).
- * Its parameter runs from the end with the smaller vertex id to the larger, so that the
- * hierarchical sample IDs mean the same point on every shape. */
+/* One straight B-rep edge along a grid axis (or a grid diagonal) between two vertices (indices into
+ * the vertex list). Its parameter runs from the end with the smaller vertex id to the larger, so
+ * that the hierarchical sample IDs mean the same point on every shape. */
 typedef struct analytic_brep_edge {
   int64_t id;
   int ends[2];
@@ -61,6 +62,7 @@ typedef struct analytic_bracket_geom {
 
 typedef struct analytic_plate_geom {
   double size[3]; /* length, width, thickness in mm */
+  double rise;    /* foldplate: height of the top face's fold at corner (length, 0); 0: flat */
 } analytic_plate_geom;
 
 /* A model evaluated at x: what the mesher and the reference generator need. */
@@ -82,6 +84,11 @@ static inline size_t analytic_grid_vertex(const int n[3], int i, int j, int k) {
 /* ---- analytic_models.c: dispatch on the model kind ---- */
 void analytic_shape_position(const analytic_shape* s, const int ijk[3], double p[3]);
 int32_t analytic_shape_face_tag(const analytic_shape* s, int axis, int side, const int cell[3]);
+/* The tag of one of the two triangles of a boundary quad: half 0 is (v00, v10, v11), half 1
+ * (v00, v11, v01) in the quad's (b, c) axes (analytic_mesh.c). The face tag unless a B-rep edge
+ * runs along the quad's diagonal (the foldplate's crease). */
+int32_t analytic_shape_triangle_tag(const analytic_shape* s, int axis, int side, const int cell[3],
+                                    int half);
 
 /* ---- analytic_mesh.c ---- */
 /* Kuhn tets and boundary triangles of the shape's grid; out untouched on failure
@@ -112,5 +119,12 @@ void analytic_plate_shape(const analytic_model* m, const double* x, analytic_sha
 void analytic_plate_position(const analytic_shape* s, const int ijk[3], double p[3]);
 int32_t analytic_plate_face_tag(const analytic_shape* s, int axis, int side, const int cell[3]);
 void analytic_plate_field_at(const analytic_shape* s, int field, const double p[3], double* value);
+
+/* ---- analytic_foldplate.c (fields and regions: the plate's) ---- */
+extern const cadinterp_parameter_desc analytic_foldplate_parameters[4];
+void analytic_foldplate_shape(const analytic_model* m, const double* x, analytic_shape* s);
+void analytic_foldplate_position(const analytic_shape* s, const int ijk[3], double p[3]);
+int32_t analytic_foldplate_triangle_tag(const analytic_shape* s, int axis, int side,
+                                        const int cell[3], int half);
 
 #endif /* CADINTERP_ANALYTIC_INTERNAL_H */

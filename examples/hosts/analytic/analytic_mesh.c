@@ -81,7 +81,6 @@ cadinterp_status analytic_shape_mesh(const analytic_shape* s, analytic_mesh* out
         for (cell[b] = 0; cell[b] < n[b]; ++cell[b]) {
           int q[3];
           uint32_t v00, v10, v11, v01;
-          const int32_t tag = analytic_shape_face_tag(s, axis, side, cell);
           uint32_t* tri = &m.triangles[3 * f];
           q[axis] = side ? n[axis] : 0;
           q[b] = cell[b];
@@ -100,8 +99,9 @@ cadinterp_status analytic_shape_mesh(const analytic_shape* s, analytic_mesh* out
           tri[3] = v00;
           tri[4] = side ? v11 : v01;
           tri[5] = side ? v01 : v11;
-          m.triangle_tags[f] = tag;
-          m.triangle_tags[f + 1] = tag;
+          /* half 0 is (v00, v10, v11), half 1 (v00, v11, v01), whichever the winding */
+          m.triangle_tags[f] = analytic_shape_triangle_tag(s, axis, side, cell, 0);
+          m.triangle_tags[f + 1] = analytic_shape_triangle_tag(s, axis, side, cell, 1);
           f += 2;
         }
     }

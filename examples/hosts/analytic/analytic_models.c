@@ -22,10 +22,12 @@ typedef struct model_class {
   const analytic_region* regions;
 } model_class;
 
-static const model_class kClasses[2] = {
+static const model_class kClasses[3] = {
     {"bracket", 4, analytic_bracket_parameters, 2, analytic_bracket_fields, 2,
      analytic_bracket_regions},
-    {"plate", 3, analytic_plate_parameters, 3, analytic_plate_fields, 2, analytic_plate_regions}};
+    {"plate", 3, analytic_plate_parameters, 3, analytic_plate_fields, 2, analytic_plate_regions},
+    {"foldplate", 4, analytic_foldplate_parameters, 3, analytic_plate_fields, 2,
+     analytic_plate_regions}};
 
 /* ---- options ---- */
 
@@ -87,7 +89,7 @@ static const char* parse_options(const char* options, analytic_model* m) {
         return "analytic host: cells must be an integer in 1..64";
       m->cells = (int)v;
       bit = 1;
-    } else if (key_is(p, key_length, "edge") && m->kind == ANALYTIC_PLATE) {
+    } else if (key_is(p, key_length, "edge") && m->kind != ANALYTIC_BRACKET) {
       if (!parse_mm(value, value_length, &v) || v < 500 || v > 100000)
         return "analytic host: edge must be a length in mm in 0.5..100 with at most 3 decimals";
       m->edge_um = v;
@@ -106,8 +108,8 @@ static const char* parse_options(const char* options, analytic_model* m) {
       return m->kind == ANALYTIC_BRACKET
                  ? "analytic host: unknown option for model 'bracket' (known: cells, levels, "
                    "fail_region)"
-                 : "analytic host: unknown option for model 'plate' (known: edge, levels, "
-                   "fail_region)";
+                 : "analytic host: unknown option for model 'plate' or 'foldplate' (known: "
+                   "edge, levels, fail_region)";
     }
     if (seen & bit) return "analytic host: an option is given twice";
     seen |= bit;
@@ -125,8 +127,10 @@ analytic_model* analytic_model_create(const char* model, const char* options, co
     m.kind = ANALYTIC_BRACKET;
   } else if (strcmp(model, "plate") == 0) {
     m.kind = ANALYTIC_PLATE;
+  } else if (strcmp(model, "foldplate") == 0) {
+    m.kind = ANALYTIC_FOLDPLATE;
   } else {
-    if (error) *error = "analytic host: unknown model (known: bracket, plate)";
+    if (error) *error = "analytic host: unknown model (known: bracket, plate, foldplate)";
     return NULL;
   }
   m.cells = DEFAULT_CELLS;
@@ -144,8 +148,8 @@ analytic_model* analytic_model_create(const char* model, const char* options, co
              m.fail_region);
   else
     snprintf(m.identity, sizeof(m.identity),
-             "analytic plate v1 (edge=%ld um, levels=%d, fail_region=%d)", m.edge_um, m.levels,
-             m.fail_region);
+             "analytic %s v1 (edge=%ld um, levels=%d, fail_region=%d)",
+             m.kind == ANALYTIC_PLATE ? "plate" : "foldplate", m.edge_um, m.levels, m.fail_region);
   out = (analytic_model*)malloc(sizeof(*out));
   if (!out) {
     if (error) *error = "analytic host: out of memory";
@@ -225,8 +229,8 @@ static cadinterp_status check_x(const analytic_model* model, const double* x,
       *message = model->kind == ANALYTIC_BRACKET
                      ? "analytic bracket: infeasible by request (fail_region=1: length and "
                        "height both in the top quarter of their ranges)"
-                     : "analytic plate: infeasible by request (fail_region=1: length and width "
-                       "both in the top quarter of their ranges)";
+                     : "analytic plate/foldplate: infeasible by request (fail_region=1: length "
+                       "and width both in the top quarter of their ranges)";
     return CADINTERP_E_INFEASIBLE;
   }
   return CADINTERP_OK;
@@ -239,20 +243,30 @@ static void shape_at(const analytic_model* model, const double* x, analytic_shap
   s->kind = model->kind;
   if (model->kind == ANALYTIC_BRACKET)
     analytic_bracket_shape(model, x, s);
-  else
+  else if (model->kind == ANALYTIC_PLATE)
     analytic_plate_shape(model, x, s);
+  else
+    analytic_foldplate_shape(model, x, s);
 }
 
 void analytic_shape_position(const analytic_shape* s, const int ijk[3], double p[3]) {
   if (s->kind == ANALYTIC_BRACKET)
     analytic_bracket_position(s, ijk, p);
-  else
+  else if (s->kind == ANALYTIC_PLATE)
     analytic_plate_position(s, ijk, p);
+  else
+    analytic_foldplate_position(s, ijk, p);
 }
 
 int32_t analytic_shape_face_tag(const analytic_shape* s, int axis, int side, const int cell[3]) {
   return s->kind == ANALYTIC_BRACKET ? analytic_bracket_face_tag(s, axis, side, cell)
                                      : analytic_plate_face_tag(s, axis, side, cell);
+}
+
+int32_t analytic_shape_triangle_tag(const analytic_shape* s, int axis, int side, const int cell[3],
+                                    int half) {
+  return s->kind == ANALYTIC_FOLDPLATE ? analytic_foldplate_triangle_tag(s, axis, side, cell, half)
+                                       : analytic_shape_face_tag(s, axis, side, cell);
 }
 
 static void shape_field_at(const analytic_shape* s, int field, const double p[3], double* value) {

@@ -1,0 +1,147 @@
+#include "mapping/correspondence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+namespace cadinterp::mapping {
+
+namespace {
+
+// Edge-end points of a sample: for each path between a B-rep vertex and a point of an edge,
+// {edge key, -2, t} -> the vertex's position, t = 0 at the edge's lower-id end, 1 at the other.
+std::map<Id, const double*> edge_ends(const builder::Sample& s) {
+  std::map<Id, const double*> out;
+  std::map<Id, const double*> by_id;
+  for (const builder::ControlPoint& p : s.points) by_id.emplace(p.id, p.position);
+  for (const builder::Path& p : s.paths) {
+    const Id key = path_edge_key(p);
+    if (key.size() < 4 || key[0] != 1) continue;
+    for (const Id* end : {&p.a, &p.b}) {
+      if (end->size() < 2 || (*end)[0] != 0) continue;
+      const std::int64_t vertex = (*end)[1];
+      const bool lower = vertex == key[2], upper = vertex == key[3];
+      if (!(lower || upper) || (lower && upper)) continue;  // a closed edge: no distinct ends
+      auto it = by_id.find(*end);
+      if (it == by_id.end()) continue;
+      Id id = key;
+      id.push_back(-2);
+      id.push_back(lower ? 0 : 1);
+      out.emplace(id, it->second);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Correspondence correspond(const builder::Sample& source, const builder::Sample& canonical) {
+  Correspondence c;
+  std::map<Id, std::pair<const double*, const double*>> all;
+  std::map<Id, const double*> in_source;
+  for (const builder::ControlPoint& p : source.points) in_source.emplace(p.id, p.position);
+  for (const builder::ControlPoint& p : canonical.points) {
+    auto it = in_source.find(p.id);
+    if (it != in_source.end()) all.emplace(p.id, std::make_pair(it->second, p.position));
+  }
+  c.matched_points = all.size();
+  const std::map<Id, const double*> src_ends = edge_ends(source);
+  for (const auto& [id, q] : edge_ends(canonical)) {
+    auto it = src_ends.find(id);
+    if (it != src_ends.end()) all.emplace(id, std::make_pair(it->second, q));
+  }
+  for (const auto& [id, pq] : all) {
+    Anchor a;
+    a.id = id;
+    std::copy(pq.first, pq.first + 3, a.source);
+    std::copy(pq.second, pq.second + 3, a.canonical);
+    c.anchors.push_back(std::move(a));
+  }
+  std::set<Id> a, b;
+  for (const builder::Path& p : source.paths) a.insert(path_edge_key(p));
+  for (const builder::Path& p : canonical.paths) b.insert(path_edge_key(p));
+  std::set_intersection(a.begin(), a.end(), b.begin(), b.end(),
+                        std::inserter(c.common_edges, c.common_edges.end()));
+  return c;
+}
+
+Id path_edge_key(const builder::Path& p) {
+  for (const Id* end : {&p.a, &p.b}) {
+    if (!end->empty() && (*end)[0] == 1) {
+      const auto stop = std::find(end->begin(), end->end(), -1);
+      return Id(end->begin(), stop);
+    }
+  }
+  const Id& lo = std::min(p.a, p.b);
+  const Id& hi = std::max(p.a, p.b);
+  Id key{2, static_cast<std::int64_t>(lo.size())};
+  key.insert(key.end(), lo.begin(), lo.end());
+  key.insert(key.end(), hi.begin(), hi.end());
+  return key;
+}
+
+double point_segment_distance(const double* p, const double* a, const double* b, double& t) {
+  double ab[3], ap[3], len2 = 0, dot = 0;
+  for (int k = 0; k < 3; ++k) {
+    ab[k] = b[k] - a[k];
+    ap[k] = p[k] - a[k];
+    len2 += ab[k] * ab[k];
+    dot += ab[k] * ap[k];
+  }
+  t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double e = a[k] + t * ab[k] - p[k];
+    d2 += e * e;
+  }
+  return std::sqrt(d2);
+}
+
+std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges,
+                              double tolerance) {
+  const builder::Sample& m = *s.sample;
+  const int H = 3 * s.triangles();
+  std::vector<char> cut(static_cast<std::size_t>(H), 0);
+  std::vector<Id> keys;
+  keys.reserve(m.paths.size());
+  for (const builder::Path& p : m.paths) keys.push_back(path_edge_key(p));
+  for (int h = 0; h < H; ++h) {
+    const int t = s.twin[static_cast<std::size_t>(h)];
+    if (t < 0) {
+      cut[static_cast<std::size_t>(h)] = 1;
+      continue;
+    }
+    if (m.triangle_tags[static_cast<std::size_t>(h / 3)] ==
+        m.triangle_tags[static_cast<std::size_t>(t / 3)])
+      continue;
+    if (t < h) {  // decided once per edge, from its first half-edge
+      cut[static_cast<std::size_t>(h)] = cut[static_cast<std::size_t>(t)];
+      continue;
+    }
+    double mid[3];
+    const double* a = s.position(s.from(h));
+    const double* b = s.position(s.to(h));
+    for (int k = 0; k < 3; ++k) mid[k] = 0.5 * (a[k] + b[k]);
+    // The path nearest to the edge's midpoint names the CAD edge it lies on.
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t best_path = m.paths.size();
+    for (std::size_t q = 0; q < m.paths.size(); ++q) {
+      const std::vector<double>& pl = m.paths[q].polyline;
+      for (std::size_t i = 0; i + 3 < pl.size(); i += 3) {
+        double u;
+        const double d = point_segment_distance(mid, &pl[i], &pl[i + 3], u);
+        if (d < best) {
+          best = d;
+          best_path = q;
+        }
+      }
+    }
+    const bool on_unshared_edge =
+        best_path < m.paths.size() && best <= tolerance && !common_edges.count(keys[best_path]);
+    cut[static_cast<std::size_t>(h)] = on_unshared_edge ? 0 : 1;
+  }
+  return cut;
+}
+
+}  // namespace cadinterp::mapping

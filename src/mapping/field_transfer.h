@@ -1,0 +1,42 @@
+// Fields carried along (paper §6, requirement 5): a canonical vertex takes the source's
+// per-vertex values by barycentric interpolation at its mapped point (in the source triangle of
+// the surface map for boundary vertices, in the source tet containing the mapped position for
+// interior ones); a canonical tet takes the value of the source tet containing its mapped
+// centroid.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "builder/sample.h"
+#include "mapping/surface.h"
+
+namespace cadinterp::mapping {
+
+/// Point location in a tet mesh (uniform grid over the tets' bounding boxes).
+class TetLocator {
+ public:
+  explicit TetLocator(const builder::Sample& s);
+  /// The tet containing p with its barycentric weights; a point outside the mesh gets the tet
+  /// nearest in barycentric terms among those around it, weights clamped. -1 for an empty mesh.
+  int locate(const double* p, double w[4]) const;
+
+ private:
+  const builder::Sample& s_;
+  double lo_[3] = {0, 0, 0}, cell_ = 1;
+  int n_[3] = {1, 1, 1};
+  std::vector<std::uint32_t> start_, items_;
+  int cell_of(double x, int a) const;
+  void weights(std::size_t t, const double* p, double w[4]) const;
+};
+
+/// Per source field, the canonical values. `surface_points[v]` is set for canonical boundary
+/// vertices (`on_surface[v]`), `mapped` the canonical vertices' mapped positions (#V by 3).
+std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
+                                                 const builder::Sample& canonical,
+                                                 const std::vector<double>& mapped,
+                                                 const std::vector<char>& on_surface,
+                                                 const std::vector<SurfacePoint>& surface_points,
+                                                 const TetLocator& locator);
+
+}  // namespace cadinterp::mapping

@@ -1,0 +1,30 @@
+// Moves the canonical mesh's interior vertices to follow its mapped boundary (paper §6.4,
+// requirement 4): the displacement d = mapped - canonical is harmonic in the P1 (linear finite
+// element) sense on the canonical tets, with the boundary displacement as Dirichlet data. P1
+// harmonic extension reproduces affine maps exactly, which is the plate's case (samples differ
+// by a scaling), and stays smooth otherwise; inverted tets are detected, never emitted.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cadinterp::mapping {
+
+/// `vertices` (#V by 3) and `tets` (#T by 4) of the canonical mesh; `fixed[v]` marks boundary
+/// vertices whose mapped position is already in `mapped` (#V by 3). Writes the interior rows of
+/// `mapped`. Fails when the solve fails.
+bool harmonic_interior(const std::vector<double>& vertices, const std::vector<std::uint32_t>& tets,
+                       const std::vector<char>& fixed, std::vector<double>& mapped,
+                       std::string& why);
+
+struct TetQuality {
+  double min_scaled_jacobian = 1.0;  ///< 1 for a regular tet, <= 0 inverted or flat
+  std::size_t inverted = 0;          ///< tets with 6 V <= 1e-12 diag^3 (builder::validate's rule)
+};
+
+/// Scaled Jacobian: min over corners of 6 V / (product of the corner's edge lengths), times
+/// sqrt(2) so that a regular tet scores 1.
+TetQuality tet_quality(const std::vector<double>& vertices, const std::vector<std::uint32_t>& tets);
+
+}  // namespace cadinterp::mapping

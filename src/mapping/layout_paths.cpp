@@ -1,0 +1,142 @@
+#include "mapping/layout_paths.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <queue>
+#include <unordered_map>
+
+namespace cadinterp::mapping {
+
+namespace {
+
+double distance(const double* a, const double* b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                   (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+// Edges of `mine` whose key the other sample lacks, with their vertex ends.
+void collect(const builder::Sample& mine, const std::set<Id>& common, bool in_source,
+             const Correspondence& corr, double tolerance, std::vector<OneSidedEdge>& out) {
+  std::map<Id, const double*> point;
+  for (const builder::ControlPoint& p : mine.points) point.emplace(p.id, p.position);
+  struct Acc {
+    double length = 0;
+    std::vector<const double*> ends;
+  };
+  std::map<Id, Acc> edges;
+  for (const builder::Path& p : mine.paths) {
+    const Id key = path_edge_key(p);
+    if (common.count(key)) continue;
+    Acc& acc = edges[key];
+    for (std::size_t i = 0; i + 3 < p.polyline.size(); i += 3)
+      acc.length += distance(&p.polyline[i], &p.polyline[i + 3]);
+    for (const Id* end : {&p.a, &p.b}) {
+      if (end->empty() || (*end)[0] != 0) continue;
+      auto it = point.find(*end);
+      if (it != point.end()) acc.ends.push_back(it->second);
+    }
+  }
+  for (const auto& [key, acc] : edges) {
+    if (acc.ends.size() != 2) continue;  // closed, or ends not given as B-rep vertices
+    OneSidedEdge e;
+    e.in_source = in_source;
+    e.key = key;
+    e.length = acc.length;
+    for (int k = 0; k < 2; ++k)
+      for (std::size_t m = 0; m < corr.anchors.size() && e.anchor[k] < 0; ++m) {
+        const double* q = in_source ? corr.anchors[m].source : corr.anchors[m].canonical;
+        if (distance(q, acc.ends[static_cast<std::size_t>(k)]) <= tolerance)
+          e.anchor[k] = static_cast<int>(m);
+      }
+    if (e.anchor[0] >= 0 && e.anchor[1] >= 0 && e.anchor[0] != e.anchor[1]) out.push_back(e);
+  }
+}
+
+}  // namespace
+
+std::vector<OneSidedEdge> one_sided_edges(const builder::Sample& source,
+                                          const builder::Sample& canonical,
+                                          const Correspondence& corr, double source_tolerance,
+                                          double canonical_tolerance) {
+  std::vector<OneSidedEdge> out;
+  collect(source, corr.common_edges, true, corr, source_tolerance, out);
+  collect(canonical, corr.common_edges, false, corr, canonical_tolerance, out);
+  std::sort(out.begin(), out.end(), [](const OneSidedEdge& a, const OneSidedEdge& b) {
+    if (a.length != b.length) return a.length < b.length;
+    if (a.in_source != b.in_source) return a.in_source;
+    return a.key < b.key;
+  });
+  return out;
+}
+
+int vertex_at(const Surface& s, const double* p, double tolerance) {
+  int best = -1;
+  double best_d = tolerance;
+  for (std::uint32_t v : s.sample->triangles) {
+    const double d = distance(s.position(v), p);
+    if (d <= best_d && (best < 0 || d < best_d || static_cast<int>(v) < best)) {
+      best_d = d;
+      best = static_cast<int>(v);
+    }
+  }
+  return best;
+}
+
+std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
+                                         std::uint32_t a, std::uint32_t b,
+                                         const std::vector<int>* patch_of, int patch) {
+  const std::size_t V = s.sample->vertex_count();
+  const int H = 3 * s.triangles();
+  std::vector<char> blocked(V, 0);
+  for (int h = 0; h < H; ++h)
+    if (cuts[static_cast<std::size_t>(h)]) blocked[s.from(h)] = blocked[s.to(h)] = 1;
+  std::vector<std::vector<int>> out_edges(V);
+  for (int h = 0; h < H; ++h)
+    if (!patch_of || (*patch_of)[static_cast<std::size_t>(h / 3)] == patch)
+      out_edges[s.from(h)].push_back(h);
+  std::vector<double> dist(V, std::numeric_limits<double>::infinity());
+  std::vector<std::int64_t> prev(V, -1);
+  using Item = std::pair<double, std::uint32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  dist[a] = 0;
+  queue.emplace(0.0, a);
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > dist[v]) continue;
+    if (v == b) break;
+    if (v != a && blocked[v]) continue;
+    for (int h : out_edges[v]) {
+      if (cuts[static_cast<std::size_t>(h)]) continue;
+      const std::uint32_t w = s.to(h);
+      if (blocked[w] && w != b) continue;
+      const double nd = d + distance(s.position(v), s.position(w));
+      if (nd < dist[w]) {
+        dist[w] = nd;
+        prev[w] = v;
+        queue.emplace(nd, w);
+      }
+    }
+  }
+  if (!std::isfinite(dist[b])) return {};
+  std::vector<std::uint32_t> chain{b};
+  while (chain.back() != a) chain.push_back(static_cast<std::uint32_t>(prev[chain.back()]));
+  std::reverse(chain.begin(), chain.end());
+  return chain;
+}
+
+void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts) {
+  std::unordered_map<std::uint64_t, int> directed;
+  const int H = 3 * s.triangles();
+  for (int h = 0; h < H; ++h) directed.emplace((std::uint64_t(s.from(h)) << 32) | s.to(h), h);
+  for (std::size_t i = 0; i + 1 < chain.size(); ++i)
+    for (const auto& [u, w] :
+         {std::make_pair(chain[i], chain[i + 1]), std::make_pair(chain[i + 1], chain[i])}) {
+      auto it = directed.find((std::uint64_t(u) << 32) | w);
+      if (it != directed.end()) cuts[static_cast<std::size_t>(it->second)] = 1;
+    }
+}
+
+}  // namespace cadinterp::mapping

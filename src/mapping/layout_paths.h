@@ -1,0 +1,47 @@
+// Shortest-path candidates of the common layout (paper §6.2, Kraevoy–Sheffer style): a CAD edge
+// that exists in one sample only (a face split in one, merged in the other) is kept as a layout
+// path when both its end vertices are anchored; the other sample gets the shortest path between
+// the corresponding anchors along its surface edges, so that both layouts split the face the
+// same way. Candidates are taken by increasing length and a path may not touch an earlier cut
+// (no crossings, no separation of anchors by a later path).
+#pragma once
+
+#include <cstdint>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mapping/correspondence.h"
+#include "mapping/surface.h"
+
+namespace cadinterp::mapping {
+
+/// A CAD edge of one side only, with the anchors at its two end vertices.
+struct OneSidedEdge {
+  bool in_source = false;  ///< the edge is the source's (else the canonical's)
+  Id key;
+  double length = 0;  ///< along its paths
+  int anchor[2] = {-1, -1};
+};
+
+/// One-sided edges whose two ends are anchors, by increasing length then key.
+std::vector<OneSidedEdge> one_sided_edges(const builder::Sample& source,
+                                          const builder::Sample& canonical,
+                                          const Correspondence& corr, double source_tolerance,
+                                          double canonical_tolerance);
+
+/// The vertex of the surface within `tolerance` of p, or -1.
+int vertex_at(const Surface& s, const double* p, double tolerance);
+
+/// Dijkstra along surface edges from a to b, whose inner vertices avoid every vertex that a cut
+/// half-edge touches; with `patch_of`, only along edges of triangles of patch `patch`. The vertex
+/// chain a..b, or empty when there is none.
+std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
+                                         std::uint32_t a, std::uint32_t b,
+                                         const std::vector<int>* patch_of = nullptr,
+                                         int patch = -1);
+
+/// Marks both half-edges of every edge along `chain` as cut.
+void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts);
+
+}  // namespace cadinterp::mapping

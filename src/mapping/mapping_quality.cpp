@@ -1,0 +1,95 @@
+#include "mapping/mapping_quality.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "builder/surface_distance.h"
+#include "mapping/interior_solve.h"
+
+namespace cadinterp::mapping {
+
+namespace {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, i == 0 ? 0 : i - 1)];
+}
+
+}  // namespace
+
+double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,
+                   const std::vector<std::int32_t>& tags) {
+  double area = 0;
+  for (std::size_t f = 0; f < mesh.triangle_count(); ++f) {
+    if (std::find(tags.begin(), tags.end(), mesh.triangle_tags[f]) == tags.end()) continue;
+    const double* p[3];
+    for (int k = 0; k < 3; ++k)
+      p[k] = &vertices[3 * std::size_t(mesh.triangles[3 * f + std::size_t(k)])];
+    double u[3], v[3];
+    for (int a = 0; a < 3; ++a) {
+      u[a] = p[1][a] - p[0][a];
+      v[a] = p[2][a] - p[0][a];
+    }
+    const double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                         u[0] * v[1] - u[1] * v[0]};
+    area += 0.5 * std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+  }
+  return area;
+}
+
+PairQuality measure_pair(const builder::Sample& source, const builder::Sample& canonical,
+                         const builder::MappedSample& mapped, const FieldTruth& truth) {
+  PairQuality q;
+  const double diag = source.bbox_diagonal();
+  const builder::SurfaceIndex src(source.vertices, source.triangles);
+  const builder::SurfaceIndex map(mapped.vertices, canonical.triangles);
+  std::vector<double> d = builder::vertex_distances(mapped.vertices, canonical.triangles, src);
+  const std::vector<double> back =
+      builder::vertex_distances(source.vertices, source.triangles, map);
+  d.insert(d.end(), back.begin(), back.end());
+  for (double& x : d) x /= diag;
+  q.hausdorff_max = d.empty() ? 0 : *std::max_element(d.begin(), d.end());
+  q.hausdorff_p99 = percentile(d, 0.99);
+
+  const TetQuality t = tet_quality(mapped.vertices, canonical.tets);
+  q.min_scaled_jacobian = t.min_scaled_jacobian;
+  q.inverted = t.inverted;
+
+  for (const builder::Region& r : source.regions) {
+    const auto it = std::find_if(canonical.regions.begin(), canonical.regions.end(),
+                                 [&](const builder::Region& c) { return c.name == r.name; });
+    if (it == canonical.regions.end()) {
+      q.region_area_error = std::max(q.region_area_error, 1.0);  // the region got lost
+      continue;
+    }
+    const double a = tagged_area(source.vertices, source, r.face_tags);
+    const double b = tagged_area(mapped.vertices, canonical, it->face_tags);
+    if (a > 0) q.region_area_error = std::max(q.region_area_error, std::abs(b / a - 1));
+  }
+
+  if (truth) {
+    std::vector<double> errors;
+    for (std::size_t f = 0; f < source.fields.size() && f < mapped.fields.size(); ++f) {
+      const builder::Field& sf = source.fields[f];
+      if (sf.location != 0) continue;
+      const auto C = static_cast<std::size_t>(sf.components);
+      const auto mm = std::minmax_element(sf.values.begin(), sf.values.end());
+      const double range = std::max(*mm.second - *mm.first, 1e-300);
+      std::vector<double> value(C);
+      for (std::size_t v = 0; v < canonical.vertex_count(); ++v) {
+        if (!truth(static_cast<int>(f), &mapped.vertices[3 * v], value.data())) continue;
+        double e = 0;
+        for (std::size_t c = 0; c < C; ++c)
+          e = std::max(e, std::abs(mapped.fields[f][v * C + c] - value[c]) / range);
+        errors.push_back(e);
+      }
+    }
+    q.field_max = errors.empty() ? 0 : *std::max_element(errors.begin(), errors.end());
+    q.field_p99 = percentile(errors, 0.99);
+  }
+  return q;
+}
+
+}  // namespace cadinterp::mapping

@@ -1,0 +1,37 @@
+// Quality of one mapping (the measured criteria), shared by the tests and
+// `cadinterp-mapping-report pairs`: boundary geometry, tet quality, boundary-condition region
+// areas, and field values against an independent truth at the mapped points.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "builder/mapping_hook.h"
+#include "builder/sample.h"
+
+namespace cadinterp::mapping {
+
+/// The true value of field `field` (components doubles into `value`) at point p of the source's
+/// solid; false when unknown.
+using FieldTruth = std::function<bool(int field, const double* p, double* value)>;
+
+struct PairQuality {
+  double hausdorff_max = 0;  ///< symmetric Hausdorff(mapped boundary, source boundary) / diag
+  double hausdorff_p99 = 0;  ///< 99th percentile of the vertex distances (both ways) / diag
+  double min_scaled_jacobian = 0;
+  std::size_t inverted = 0;
+  double region_area_error = 0;  ///< max over regions |area mapped / area source - 1|
+  double field_max = 0;          ///< per-vertex fields: max |mapped - truth| / truth range
+  double field_p99 = 0;
+};
+
+/// `truth` may be empty (field errors stay 0).
+PairQuality measure_pair(const builder::Sample& source, const builder::Sample& canonical,
+                         const builder::MappedSample& mapped, const FieldTruth& truth);
+
+/// Area of the triangles whose tag is in `tags` with positions `vertices`.
+double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,
+                   const std::vector<std::int32_t>& tags);
+
+}  // namespace cadinterp::mapping

@@ -1,0 +1,256 @@
+// cadinterp-mapping-report: measurements of the mesh mapper (paper §6) on the analytic host.
+//
+//   pairs  the quality table over random (source sample, canonical mesh) pairs of a model:
+//          boundary Hausdorff (max, 99th percentile, relative to the bbox diagonal), min scaled
+//          Jacobian, inverted tets, boundary-condition region areas, field error against the
+//          closed form at the mapped points, and ms per mapping; then ms vs vertex count.
+//   sweep  builds an asset with the mesh mapper and writes a VTU sequence sweeping one
+//          parameter across the box (others at the centre), to watch for flicker or jumps.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "analytic_host.h"
+#include "builder/builder_e2e.h"
+#include "builder/host_call.h"
+#include "cadinterp/cadinterp.h"
+#include "mapping/interior_solve.h"
+#include "mapping/mapping_quality.h"
+#include "mapping/mesh_mapper.h"
+#include "tools/cli_args.h"
+#include "tools/mesh_export.h"
+
+namespace {
+
+using namespace cadinterp;
+using Clock = std::chrono::steady_clock;
+
+const cadinterp_host* open_host(const std::string& model, const std::string& options) {
+  const char* err = nullptr;
+  const cadinterp_host* h = cadinterp_host_entry(model.c_str(), options.c_str(), &err);
+  if (!h) throw std::runtime_error(model + ": " + (err ? err : "cannot open the model"));
+  return h;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+}
+
+int pairs(const std::vector<std::string>& args) {
+  std::string model = "plate", options = "edge=5";
+  int count = 40, seed = 1;
+  std::string sizes = "8,5,3,2,1.5";
+  cli::ArgParser p("cadinterp-mapping-report pairs", "",
+                   "Maps random (source, canonical) sample pairs of an analytic model and prints "
+                   "the quality table, then ms per mapping against the vertex count.");
+  p.option("model", 'm', "NAME", "analytic model (plate, bracket, ...)", &model);
+  p.option("options", 'o', "K=V,...", "the model's options", &options);
+  p.option("pairs", 'n', "N", "random pairs", &count, 1, 100000);
+  p.option("seed", 's', "N", "random seed", &seed, 0, 1 << 30);
+  p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
+  if (!p.parse(args)) return 0;
+
+  const cadinterp_host* h = open_host(model, options);
+  const builder::Host host(*h);
+  const analytic_model* am = analytic_host_model(h);
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  auto random_x = [&] {
+    std::vector<double> x(static_cast<std::size_t>(host.dim()));
+    for (std::size_t d = 0; d < x.size(); ++d)
+      x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
+    return x;
+  };
+  std::printf("model %s (%s), %d random pairs\n", model.c_str(), options.c_str(), count);
+  std::printf("%6s %6s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "V_src", "V_can", "ms",
+              "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err", "field_max",
+              "field_p99");
+  std::vector<double> haus, haus99, area, field, field99;
+  double min_sj = 1;
+  std::size_t inverted = 0, failed = 0, differing = 0;
+  for (int i = 0; i < count; ++i) {
+    const std::vector<double> xa = random_x(), xc = random_x();
+    const builder::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
+    if (!a.feasible || !c.feasible) continue;
+    differing += builder::same_combinatorics(a, c) ? 0 : 1;
+    builder::MappedSample m;
+    std::string why;
+    const auto t0 = Clock::now();
+    const bool ok = mapping::map_sample(a, c, m, why);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (!ok) {
+      ++failed;
+      std::printf("%6zu %6zu %8.2f FAILED: %s\n", a.vertex_count(), c.vertex_count(), ms,
+                  why.c_str());
+      continue;
+    }
+    const mapping::PairQuality q =
+        mapping::measure_pair(a, c, m, [&](int f, const double* pt, double* v) {
+          return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
+        });
+    // The canonical mesh's own quality, for comparison: the mapping cannot do better.
+    const double own = mapping::tet_quality(c.vertices, c.tets).min_scaled_jacobian;
+    std::printf("%6zu %6zu %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10.2e %10.2e\n",
+                a.vertex_count(), c.vertex_count(), ms, q.hausdorff_max, q.hausdorff_p99,
+                q.min_scaled_jacobian, own, q.inverted, q.region_area_error, q.field_max,
+                q.field_p99);
+    haus.push_back(q.hausdorff_max);
+    haus99.push_back(q.hausdorff_p99);
+    area.push_back(q.region_area_error);
+    field.push_back(q.field_max);
+    field99.push_back(q.field_p99);
+    min_sj = std::min(min_sj, q.min_scaled_jacobian);
+    inverted += q.inverted;
+  }
+  auto mx = [](const std::vector<double>& v) {
+    return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
+  };
+  std::printf(
+      "summary: %zu mapped (%zu with differing combinatorics), %zu failed; Hausdorff max %.2e, "
+      "p99 over pairs of per-pair p99 %.2e (target 1e-3); min scaled Jacobian %.3f; inverted %zu;"
+      " region area error max %.2e (target 1e-2); field error max %.2e, p99 %.2e\n",
+      haus.size(), differing, failed, mx(haus), percentile(haus99, 0.99), min_sj, inverted,
+      mx(area), mx(field), percentile(field99, 0.99));
+
+  // ms per mapping against the vertex count: the plate at one shape pair, finer and finer.
+  const std::vector<std::string> edges = cli::split_list(sizes);
+  if (!edges.empty()) {
+    std::printf("\ntiming (plate, source (60,30,6) -> canonical (80,45,8), same edge length)\n");
+    std::printf("%8s %8s %8s %8s %10s\n", "edge_mm", "V_src", "V_can", "T_can", "ms/map");
+  }
+  for (const std::string& e : edges) {
+    const cadinterp_host* ph = open_host("plate", "edge=" + e);
+    const builder::Host plate(*ph);
+    const double xa[3] = {60, 30, 6}, xc[3] = {80, 45, 8};
+    const builder::Sample a = plate.evaluate(xa), c = plate.evaluate(xc);
+    builder::MappedSample m;
+    std::string why;
+    int reps = 0;
+    const auto t0 = Clock::now();
+    do {
+      if (!mapping::map_sample(a, c, m, why)) {
+        std::printf("%8s FAILED: %s\n", e.c_str(), why.c_str());
+        break;
+      }
+      ++reps;
+    } while (std::chrono::duration<double>(Clock::now() - t0).count() < 0.5 && reps < 50);
+    const double ms =
+        std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / std::max(1, reps);
+    std::printf("%8s %8zu %8zu %8zu %10.2f\n", e.c_str(), a.vertex_count(), c.vertex_count(),
+                c.tet_count(), ms);
+  }
+  return failed ? 1 : 0;
+}
+
+int sweep(const std::vector<std::string>& args) {
+  std::string model = "plate", options = "edge=5", out_dir;
+  int parameter = 0, steps = 24, samples = 120;
+  cli::ArgParser p("cadinterp-mapping-report sweep", "",
+                   "Builds an asset of an analytic model with the mesh mapper, then writes "
+                   "OUT/sweep_NNN.vtu sweeping one parameter from its lower to its upper bound "
+                   "(others at the centre of the box), across several elements.");
+  p.option("model", 'm', "NAME", "analytic model", &model);
+  p.option("options", 'o', "K=V,...", "the model's options", &options);
+  p.option("parameter", 'p', "D", "the parameter to sweep (index)", &parameter, 0, 63);
+  p.option("steps", 'n', "N", "frames", &steps, 2, 10000);
+  p.option("samples", 0, "N", "the build's sample budget", &samples, 2, 100000);
+  p.option("out", 0, "DIR", "output directory", &out_dir).required();
+  if (!p.parse(args)) return 0;
+  const cadinterp_host* h = open_host(model, options);
+  std::filesystem::create_directories(out_dir);
+  const std::string asset_path = out_dir + "/sweep.cadi";
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = samples;
+  const builder::BuildOutcome r = builder::build_asset(*h, o, asset_path);
+  if (r.status != CADINTERP_OK) throw std::runtime_error("build failed: " + r.error);
+  std::printf("built %s: %d samples, %d elements (%d infeasible)\n", asset_path.c_str(),
+              r.report.samples, r.report.elements, r.report.infeasible_elements);
+  cadinterp_asset* asset = nullptr;
+  if (cadinterp_open(asset_path.c_str(), &asset) != CADINTERP_OK)
+    throw std::runtime_error(std::string("cannot open the asset: ") + cadinterp_open_error());
+  cadinterp_workspace* ws = nullptr;
+  cadinterp_workspace_create(asset, &ws);
+  const int K = cadinterp_dim(asset);
+  if (parameter >= K) throw cli::UsageError("--parameter must be below " + std::to_string(K));
+  std::vector<double> lo(static_cast<std::size_t>(K)), hi(lo.size()), x(lo.size());
+  for (int d = 0; d < K; ++d) {
+    cadinterp_parameter_info info;
+    cadinterp_parameter(asset, d, &info);
+    lo[static_cast<std::size_t>(d)] = info.lower;
+    hi[static_cast<std::size_t>(d)] = info.upper;
+    x[static_cast<std::size_t>(d)] = 0.5 * (info.lower + info.upper);
+  }
+  std::vector<int> fields;
+  for (int f = 0; f < cadinterp_field_count(asset); ++f) fields.push_back(f);
+  std::vector<float> previous;
+  for (int i = 0; i < steps; ++i) {
+    const auto d = static_cast<std::size_t>(parameter);
+    x[d] = lo[d] + (hi[d] - lo[d]) * i / (steps - 1);
+    cadinterp_mesh m;
+    if (cadinterp_eval(ws, x.data(), fields.data(), static_cast<int>(fields.size()), &m) !=
+        CADINTERP_OK) {
+      std::printf("step %d: %s\n", i, cadinterp_workspace_error(ws));
+      continue;
+    }
+    cli::ExportMesh em;
+    em.vertex_count = m.vertex_count;
+    em.tet_count = m.tet_count;
+    em.triangle_count = m.triangle_count;
+    em.positions = m.positions;
+    em.tets = m.tets;
+    em.triangles = m.triangles;
+    em.triangle_tags = m.triangle_tags;
+    for (std::size_t k = 0; k < fields.size(); ++k) {
+      cadinterp_field_info info;
+      cadinterp_field(asset, fields[k], &info);
+      em.fields.push_back(
+          {info.name, info.location == CADINTERP_PER_TET, info.components, m.fields[k]});
+    }
+    em.generator = "cadinterp-mapping-report sweep";
+    char name[64];
+    std::snprintf(name, sizeof name, "/sweep_%03d.vtu", i);
+    cli::write_vtu(out_dir + name, em, cli::VtuEncoding::Base64);
+    // Largest vertex move from the previous frame where the mesh is the same (a jump shows).
+    double move = -1;
+    if (previous.size() == 3 * std::size_t(m.vertex_count)) {
+      move = 0;
+      for (std::size_t v = 0; v < previous.size(); ++v)
+        move = std::max(move, std::abs(static_cast<double>(previous[v] - m.positions[v])));
+    }
+    previous.assign(m.positions, m.positions + 3 * std::size_t(m.vertex_count));
+    std::printf("step %3d x[%d]=%-10.4g V=%-6u max vertex move %s\n", i, parameter, x[d],
+                m.vertex_count, move < 0 ? "(new mesh)" : std::to_string(move).c_str());
+  }
+  cadinterp_workspace_destroy(ws);
+  cadinterp_close(asset);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + std::min(argc, 2), argv + argc);
+  const std::string command = argc > 1 ? argv[1] : "";
+  try {
+    if (command == "pairs") return pairs(args);
+    if (command == "sweep") return sweep(args);
+    std::printf(
+        "usage: cadinterp-mapping-report pairs|sweep [options] (--help for each)\n"
+        "  pairs  quality table of the mesh mapper over random sample pairs\n"
+        "  sweep  VTU sequence of a built asset sweeping one parameter\n");
+    return command.empty() || command == "--help" ? 0 : 2;
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "cadinterp-mapping-report: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "cadinterp-mapping-report: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,344 @@
+// The mesh mapper (paper §6) on the analytic host's plate, whose mesh resolution follows its
+// size: independent truth is the host itself (its own mesh of the same solid at another
+// resolution, and analytic_model_field_at's closed-form fields).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+#include "analytic_host.h"
+#include "builder/host_call.h"
+#include "builder/surface_distance.h"
+#include "mapping/correspondence.h"
+#include "mapping/interior_solve.h"
+#include "mapping/mapping_quality.h"
+#include "mapping/mesh_mapper.h"
+#include "mapping/neighbour_transfer.h"
+
+namespace {
+
+using namespace cadinterp;
+
+struct Model {
+  const cadinterp_host* host = nullptr;
+  const analytic_model* model = nullptr;
+  explicit Model(const char* name, const char* options) {
+    const char* err = nullptr;
+    host = cadinterp_host_entry(name, options, &err);
+    if (!host) throw std::runtime_error(err ? err : "no host");
+    model = analytic_host_model(host);
+  }
+  builder::Sample at(const std::vector<double>& x) const {
+    builder::Sample s = builder::Host(*host).evaluate(x.data());
+    if (!s.feasible) throw std::runtime_error("infeasible: " + s.message);
+    return s;
+  }
+  mapping::FieldTruth truth(const std::vector<double>& x) const {
+    return [this, x](int f, const double* p, double* v) {
+      return analytic_model_field_at(model, f, x.data(), p, v) == CADINTERP_OK;
+    };
+  }
+};
+
+// Same solid, two resolutions: the mapped canonical mesh is the canonical mesh itself (flat
+// faces, affine interior), and the fields are the source's fields at those points.
+TEST(MeshMapper, SameSolidAtAnotherResolutionLandsOnTheCanonicalMesh) {
+  const Model fine("plate", "edge=4");
+  const Model coarse("plate", "edge=7");
+  const std::vector<double> x{63.0, 37.0, 6.5};
+  const builder::Sample source = coarse.at(x), canonical = fine.at(x);
+  ASSERT_NE(source.vertex_count(), canonical.vertex_count());
+  builder::MappedSample m;
+  std::string why;
+  mapping::MapStats stats;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+  EXPECT_EQ(stats.patches, 6u);
+  EXPECT_EQ(stats.inverted, 0u);
+  // Vertices may slide within a face (the two disk parametrizations differ), never off it: the
+  // mapped boundary is the canonical one, and the tets fill the same volume.
+  const double diag = canonical.bbox_diagonal();
+  EXPECT_LT(builder::symmetric_hausdorff(m.vertices, canonical.triangles, canonical.vertices,
+                                         canonical.triangles),
+            1e-9 * diag);
+  auto volume = [&](const std::vector<double>& v) {
+    double sum = 0;
+    for (std::size_t t = 0; t < canonical.tet_count(); ++t) {
+      const double* p[4];
+      for (int i = 0; i < 4; ++i)
+        p[i] = &v[3 * std::size_t(canonical.tets[4 * t + std::size_t(i)])];
+      double e[3][3];
+      for (int i = 0; i < 3; ++i)
+        for (int a = 0; a < 3; ++a) e[i][a] = p[i + 1][a] - p[0][a];
+      sum += (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+              e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+              e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])) /
+             6.0;
+    }
+    return sum;
+  };
+  EXPECT_NEAR(volume(m.vertices), x[0] * x[1] * x[2], 1e-9 * x[0] * x[1] * x[2]);
+  // B-rep corners are control points: they land exactly on themselves.
+  for (const builder::ControlPoint& p : canonical.points) {
+    if (p.id[0] != 0) continue;
+    double best = 1e300;
+    for (std::size_t v = 0; v < canonical.vertex_count(); ++v) {
+      double d = 0, e = 0;
+      for (int a = 0; a < 3; ++a) {
+        d += (canonical.vertices[3 * v + std::size_t(a)] - p.position[a]) *
+             (canonical.vertices[3 * v + std::size_t(a)] - p.position[a]);
+        e += (m.vertices[3 * v + std::size_t(a)] - p.position[a]) *
+             (m.vertices[3 * v + std::size_t(a)] - p.position[a]);
+      }
+      if (d < 1e-18 * diag * diag) best = std::sqrt(e);
+    }
+    EXPECT_LT(best, 1e-9 * diag);
+  }
+  ASSERT_EQ(m.fields.size(), source.fields.size());
+  // Displacement is linear along y and z and cubic in x: barycentric interpolation of the
+  // coarse source's values is within a small fraction of its range.
+  const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, coarse.truth(x));
+  EXPECT_LT(q.field_max, 2e-2);
+  EXPECT_LT(q.region_area_error, 1e-9);
+}
+
+// Across the parameter box: the boundary stays on the source's boundary, no tet inverts,
+// boundary-condition faces keep their area, fields follow.
+TEST(MeshMapper, PlatePairsAcrossResolutionsMeetTheQualityTargets) {
+  const Model plate("plate", "edge=5");
+  const std::vector<std::vector<double>> xs{
+      {40, 20, 2}, {100, 60, 10}, {57, 23, 9.1}, {91, 48, 3.3}, {44, 59, 7.7}};
+  int pairs = 0;
+  for (const auto& xa : xs)
+    for (const auto& xc : xs) {
+      if (xa == xc) continue;
+      const builder::Sample source = plate.at(xa), canonical = plate.at(xc);
+      builder::MappedSample m;
+      std::string why;
+      ASSERT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
+      const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, plate.truth(xa));
+      EXPECT_LE(q.hausdorff_max, 1e-3);
+      EXPECT_EQ(q.inverted, 0u);
+      EXPECT_GT(q.min_scaled_jacobian, 0.0);
+      EXPECT_LT(q.region_area_error, 1e-2);
+      EXPECT_LT(q.field_max, 5e-2);
+      ++pairs;
+    }
+  EXPECT_EQ(pairs, 20);
+}
+
+// Across a B-rep topology change (the foldplate's top face splits along a crease at fold > 0)
+// and across resolutions, both ways: the crease is a layout path on the folded side and a
+// shortest path between the same anchors on the flat side, so the boundary stays exact.
+TEST(MeshMapper, FoldplatePairsAcrossItsTopologyChange) {
+  const Model fold("foldplate", "edge=6");
+  const std::vector<std::vector<double>> xs{
+      {70, 40, 6, -0.4}, {52, 33, 4.2, 0.7}, {91, 25, 8.5, 0.05}, {45, 58, 3.1, -1}};
+  int across = 0;
+  for (const auto& xa : xs)
+    for (const auto& xc : xs) {
+      if (xa == xc) continue;
+      const builder::Sample source = fold.at(xa), canonical = fold.at(xc);
+      const auto has7 = [](const builder::Sample& s) {
+        return std::count(s.triangle_tags.begin(), s.triangle_tags.end(), 7) > 0;
+      };
+      across += has7(source) != has7(canonical) ? 1 : 0;
+      builder::MappedSample m;
+      std::string why;
+      mapping::MapStats stats;
+      ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+      EXPECT_EQ(stats.patches, has7(source) || has7(canonical) ? 7u : 6u);
+      const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, fold.truth(xa));
+      EXPECT_LE(q.hausdorff_max, 1e-3);
+      EXPECT_EQ(q.inverted, 0u);
+      EXPECT_LT(q.region_area_error, 1e-2);
+      EXPECT_LT(q.field_max, 5e-2);
+    }
+  EXPECT_EQ(across, 8);
+}
+
+// §5.3, Fig. 15: a neighbour element's sample brought into this element's combinatorics through
+// a shared sample (one §6 mapping per sample, then barycentric transfer) lands on the sample's
+// own boundary, like the direct mapping, with its fields.
+TEST(MeshMapper, NeighbourTransferThroughASharedSample) {
+  const Model plate("plate", "edge=5");
+  const std::vector<double> xl{60, 30, 6}, xn{85, 50, 8}, xs{72, 40, 7}, xk{95, 55, 9};
+  const builder::Sample element = plate.at(xl), neighbour = plate.at(xn);
+  const builder::Sample shared = plate.at(xs), k = plate.at(xk);
+  ASSERT_FALSE(builder::same_combinatorics(element, neighbour));
+  builder::MappedSample s_n, s_l, k_n, k_l;
+  std::string why;
+  ASSERT_TRUE(mapping::map_sample(shared, neighbour, s_n, why)) << why;
+  ASSERT_TRUE(mapping::map_sample(shared, element, s_l, why)) << why;
+  ASSERT_TRUE(mapping::map_sample(k, neighbour, k_n, why)) << why;
+  const mapping::NeighbourBridge bridge(neighbour, s_n.vertices, element, s_l.vertices);
+  ASSERT_TRUE(bridge.ok()) << bridge.why();
+  ASSERT_TRUE(bridge.apply(k_n, k_l, why)) << why;
+  const mapping::PairQuality q = mapping::measure_pair(k, element, k_l, plate.truth(xk));
+  EXPECT_LE(q.hausdorff_max, 1e-3);
+  EXPECT_EQ(q.inverted, 0u);
+  EXPECT_LT(q.region_area_error, 1e-2);
+  EXPECT_LT(q.field_max, 5e-2);
+  builder::MappedSample wrong;
+  EXPECT_FALSE(bridge.apply(s_l, wrong, why));  // not in the neighbour's combinatorics
+}
+
+// A patch that is not a disk: with the four side faces given one tag, the sides form a band (a
+// disk with a hole) between the top and bottom loops. Two shortest paths between the same
+// anchors on both sides split it into disks; the mapping stays on the source's boundary.
+TEST(MeshMapper, PatchesWithHolesAreSplitIntoDisks) {
+  const Model plate("plate", "edge=4");
+  auto band = [](builder::Sample s) {
+    for (std::int32_t& t : s.triangle_tags)
+      if (t <= 4) t = 1;
+    return s;
+  };
+  const builder::Sample source = band(plate.at({52, 28, 7})),
+                        canonical = band(plate.at({88, 46, 5}));
+  builder::MappedSample m;
+  std::string why;
+  mapping::MapStats stats;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+  EXPECT_EQ(stats.patches, 4u);  // top, bottom, and the band in two
+  const mapping::PairQuality q =
+      mapping::measure_pair(source, canonical, m, plate.truth({52, 28, 7}));
+  std::printf("band: Hausdorff %.2e, area error %.2e, min SJ %.3f\n", q.hausdorff_max,
+              q.region_area_error, q.min_scaled_jacobian);
+  EXPECT_EQ(q.inverted, 0u);
+  EXPECT_LT(q.region_area_error, 1e-2);
+  EXPECT_LT(q.field_max, 5e-2);
+  EXPECT_LE(q.hausdorff_max, 2e-2);
+}
+
+TEST(MeshMapper, MappingASampleOntoItselfIsTheIdentity) {
+  const Model plate("plate", "edge=6");
+  const builder::Sample s = plate.at({70, 30, 5});
+  builder::MappedSample m;
+  std::string why;
+  ASSERT_TRUE(mapping::map_sample(s, s, m, why)) << why;
+  for (std::size_t i = 0; i < m.vertices.size(); ++i)
+    ASSERT_NEAR(m.vertices[i], s.vertices[i], 1e-9 * s.bbox_diagonal());
+  for (std::size_t f = 0; f < s.fields.size(); ++f) {
+    const auto mm = std::minmax_element(s.fields[f].values.begin(), s.fields[f].values.end());
+    for (std::size_t i = 0; i < s.fields[f].values.size(); ++i)
+      ASSERT_NEAR(m.fields[f][i], s.fields[f].values[i], 1e-9 * (*mm.second - *mm.first + 1));
+  }
+}
+
+TEST(MeshMapper, DeterministicAndThreadSafe) {
+  const Model plate("plate", "edge=5");
+  const builder::Sample a = plate.at({48, 21, 4}), b = plate.at({95, 55, 9});
+  const mapping::MeshMapper mapper;
+  builder::MappedSample first;
+  std::string why;
+  ASSERT_TRUE(mapper.map(a, b, first, why)) << why;
+  std::vector<builder::MappedSample> results(3);
+  std::vector<std::thread> threads;
+  for (auto& r : results)
+    threads.emplace_back([&, rp = &r] {
+      std::string w;
+      mapper.map(a, b, *rp, w);
+    });
+  for (auto& t : threads) t.join();
+  for (const auto& r : results) {
+    EXPECT_EQ(r.vertices, first.vertices);
+    EXPECT_EQ(r.fields, first.fields);
+  }
+}
+
+TEST(MeshMapper, RefusesWithoutCommonControlPoints) {
+  const Model plate("plate", "edge=5");
+  builder::Sample a = plate.at({48, 21, 4});
+  const builder::Sample b = plate.at({95, 55, 9});
+  for (auto& p : a.points) p.id.push_back(99);  // no ID equal any more
+  builder::MappedSample m;
+  std::string why;
+  EXPECT_FALSE(mapping::map_sample(a, b, m, why));
+  EXPECT_NE(why.find("no control point with the same ID"), std::string::npos) << why;
+}
+
+TEST(MeshMapper, RefusesPatchesThatAreNotDisks) {
+  const Model plate("plate", "edge=5");
+  builder::Sample a = plate.at({48, 21, 4});
+  const builder::Sample b = plate.at({95, 55, 9});
+  // One face tag everywhere: the whole closed surface is one patch (a sphere).
+  std::fill(a.triangle_tags.begin(), a.triangle_tags.end(), 1);
+  builder::MappedSample m;
+  std::string why;
+  EXPECT_FALSE(mapping::map_sample(a, b, m, why));
+  EXPECT_NE(why.find("not a disk"), std::string::npos) << why;
+}
+
+TEST(MeshMapper, RefusesMalformedSamplesByName) {
+  const Model plate("plate", "edge=5");
+  builder::Sample a = plate.at({48, 21, 4});
+  const builder::Sample b = plate.at({95, 55, 9});
+  a.triangles[7] = static_cast<std::uint32_t>(a.vertex_count() + 3);
+  builder::MappedSample m;
+  std::string why;
+  EXPECT_FALSE(mapping::map_sample(a, b, m, why));
+  EXPECT_NE(why.find("source sample is invalid: triangle vertex index out of range"),
+            std::string::npos)
+      << why;
+  builder::Sample c = b;
+  c.fields[0].values.pop_back();
+  EXPECT_FALSE(mapping::map_sample(b, c, m, why));
+  EXPECT_NE(why.find("canonical sample is invalid"), std::string::npos) << why;
+}
+
+// P1-harmonic extension reproduces affine maps exactly (a mirror image here), and the quality
+// check sees that every mirrored tet is inverted.
+TEST(MeshMapper, HarmonicInteriorIsExactForAffineMapsAndInversionsAreCounted) {
+  // Small: the direct solve; large (over 3000 interior vertices): conjugate gradients.
+  for (const auto& [options, x, tolerance] :
+       {std::make_tuple("edge=2", std::vector<double>{41, 21, 6.2}, 1e-9),
+        std::make_tuple("edge=1.2", std::vector<double>{60, 30, 6.2}, 1e-7)}) {
+    const Model plate("plate", options);
+    const builder::Sample s = plate.at(x);
+    std::vector<char> fixed(s.vertex_count(), 0);
+    for (std::uint32_t v : s.triangles) fixed[v] = 1;
+    ASSERT_NE(std::count(fixed.begin(), fixed.end(), 0), 0);
+    auto affine = [](const double* p, double* q) {
+      q[0] = -1.5 * p[0] + 0.2 * p[1] + 3;
+      q[1] = 0.7 * p[1] - 0.1 * p[2];
+      q[2] = 0.3 * p[0] + 1.1 * p[2] - 2;
+    };
+    std::vector<double> mapped(s.vertices.size(), 0.0), expected(s.vertices.size());
+    for (std::size_t v = 0; v < s.vertex_count(); ++v) {
+      affine(&s.vertices[3 * v], &expected[3 * v]);
+      if (fixed[v]) std::copy_n(&expected[3 * v], 3, &mapped[3 * v]);
+    }
+    std::string why;
+    ASSERT_TRUE(mapping::harmonic_interior(s.vertices, s.tets, fixed, mapped, why)) << why;
+    for (std::size_t i = 0; i < mapped.size(); ++i) ASSERT_NEAR(mapped[i], expected[i], tolerance);
+    // det of the linear part < 0: an orientation-reversing map inverts every tet.
+    EXPECT_EQ(mapping::tet_quality(mapped, s.tets).inverted, s.tet_count());
+    EXPECT_EQ(mapping::tet_quality(s.vertices, s.tets).inverted, 0u);
+  }
+}
+
+TEST(MeshMapper, PathEdgeKeysNameTheCadEdge) {
+  builder::Path p;
+  p.a = {0, 3, 2, 7, 11};
+  p.b = {1, 7, 3, 4, -1, 0};
+  EXPECT_EQ(mapping::path_edge_key(p), (mapping::Id{1, 7, 3, 4}));
+  builder::Path q;
+  q.a = {0, 4, 1};
+  q.b = {0, 3, 1};
+  EXPECT_EQ(mapping::path_edge_key(q), (mapping::Id{2, 3, 0, 3, 1, 0, 4, 1}));
+}
+
+TEST(MeshMapper, ScaledJacobianOfARegularTetIsOne) {
+  // Regular tet: alternate corners of a cube, positively oriented.
+  const std::vector<double> v{0, 0, 0, 1, 1, 0, 1, 0, 1, 0, 1, 1};
+  const std::vector<std::uint32_t> t{0, 1, 2, 3};
+  mapping::TetQuality q = mapping::tet_quality(v, t);
+  if (q.inverted) q = mapping::tet_quality(v, {0, 2, 1, 3});
+  EXPECT_NEAR(q.min_scaled_jacobian, 1.0, 1e-12);
+}
+
+}  // namespace

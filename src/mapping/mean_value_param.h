@@ -1,0 +1,45 @@
+// Floater's mean-value parametrization of a disk patch onto the unit disk (paper §6.3,
+// requirement 3): the boundary loop is fixed on the circle, every interior vertex is the
+// mean-value-weighted average of its neighbours. With a convex boundary the result is a valid
+// (fold-free) embedding (Floater 2003), which is what lets one disk be located in the other.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "mapping/patch_layout.h"
+#include "mapping/surface.h"
+
+namespace cadinterp::mapping {
+
+struct DiskMap {
+  std::vector<std::uint32_t> vertices;           ///< surface vertices of the patch, increasing
+  std::unordered_map<std::uint32_t, int> local;  ///< surface vertex -> index in `vertices`
+  std::vector<double> uv;                        ///< per local vertex, 2 values
+  std::vector<int> triangles;                    ///< local indices, 3 per patch triangle
+};
+
+/// `loop_uv` holds 2 values per patch.loop vertex (on the unit circle, counter-clockwise).
+/// Fails when the sparse solve fails (a degenerate patch).
+bool mean_value_parametrize(const Surface& s, const Patch& patch,
+                            const std::vector<double>& loop_uv, DiskMap& out, std::string& why);
+
+/// Point location among a disk map's triangles (uniform grid over the disk).
+class DiskLocator {
+ public:
+  explicit DiskLocator(const DiskMap& m);
+  /// The triangle containing (u, v) with barycentric weights; a point outside every triangle
+  /// (rounding at the circle) gets the nearest one, weights clamped to it.
+  void locate(double u, double v, int& triangle, double w[3]) const;
+
+ private:
+  const DiskMap& m_;
+  int n_ = 1;
+  std::vector<int> start_, items_;
+  void weights(int t, double u, double v, double w[3]) const;
+  int cell(double x) const;
+};
+
+}  // namespace cadinterp::mapping

@@ -1,0 +1,43 @@
+// The mesh mapper (paper §6): a source sample's geometry and fields in the combinatorics of an
+// element's canonical mesh, through their references (builder/mapping_hook.h). Pipeline, one
+// file per step:
+//   correspondence.cpp    control points matched by equal IDs; CAD edges present in both
+//   patch_layout.cpp      common layout: patches bounded by common CAD paths, paired by anchors
+//   mean_value_param.cpp  both sides of a patch onto one disk (Floater), composed
+//   interior_solve.cpp    P1-harmonic interior with the surface map as Dirichlet data
+//   field_transfer.cpp    per-vertex / per-tet fields at the mapped points
+// Deterministic (no threads, no hash-order iteration) and const: safe from several threads.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "builder/mapping_hook.h"
+#include "builder/sample.h"
+
+namespace cadinterp::mapping {
+
+/// What one mapping found (for the report command and the tests).
+struct MapStats {
+  std::size_t matched_points = 0;
+  std::size_t patches = 0;
+  double min_scaled_jacobian = 0;  ///< of the mapped canonical tets
+  std::size_t inverted = 0;        ///< mapped tets inverted or flat (a failure when > 0)
+};
+
+/// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
+/// allow it (no common control points, a patch that is not a disk, patches without
+/// counterpart) or when the result would contain inverted tets. `stats` may be null.
+bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
+                builder::MappedSample& out, std::string& why, MapStats* stats = nullptr);
+
+class MeshMapper final : public builder::Mapper {
+ public:
+  bool map(const builder::Sample& source, const builder::Sample& canonical,
+           builder::MappedSample& out, std::string& why) const override {
+    return map_sample(source, canonical, out, why, nullptr);
+  }
+  const char* name() const override { return "mesh-v1"; }
+};
+
+}  // namespace cadinterp::mapping

@@ -1,0 +1,55 @@
+// The common patch layout of two boundary surfaces (paper §6.2, requirement 2). Patches are the
+// faces of the layout: connected sets of triangles bounded by layout cuts (CAD paths present in
+// both samples, correspondence.h). Each must be a disk whose boundary loop carries matched
+// control points (anchors); patches of the two samples correspond when their anchors agree
+// in cyclic order.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mapping/correspondence.h"
+#include "mapping/surface.h"
+
+namespace cadinterp::mapping {
+
+/// A boundary loop of a patch, the patch on its left seen from outside.
+struct Loop {
+  std::vector<std::uint32_t> vertices;
+  std::vector<double> s;         ///< arc length at vertices[i]; size()+1 values (last: length)
+  std::vector<int> anchors;      ///< indices into Correspondence::anchors, in loop order,
+                                 ///< starting at the smallest
+  std::vector<double> anchor_s;  ///< arc length of each anchor along the loop
+};
+
+struct Patch {
+  std::vector<int> triangles;       ///< triangle indices of the surface, increasing
+  std::vector<std::uint32_t> loop;  ///< the boundary loop (of a disk; else the first loop)
+  std::vector<double> loop_s;       ///< as Loop::s
+  std::vector<int> anchors;         ///< as Loop::anchors
+  std::vector<double> anchor_s;     ///< as Loop::anchor_s
+  std::vector<Loop> holes;          ///< further loops (build_patches with allow_holes), ordered
+                                    ///< by their smallest anchor
+  /// What pairs patches across the samples: each loop's anchors in cyclic order.
+  std::vector<int> key() const;
+};
+
+/// Patches of one side. `anchor_positions[m]` is anchor m's position on this side. Fails when a
+/// patch has a pinched boundary, a loop without anchor, or is not a disk: with `allow_holes`,
+/// a sphere with holes (Euler characteristic 2 - loops) is accepted and its loops other than
+/// the first go to `holes`, for the caller to cut (§6.2's subdivision).
+bool build_patches(const Surface& s, const std::vector<char>& cuts,
+                   const std::vector<const double*>& anchor_positions, double tolerance,
+                   bool allow_holes, std::vector<Patch>& out, std::string& why);
+
+/// Per triangle of the surface, the index of its patch.
+std::vector<int> patch_of_triangles(const Surface& s, const std::vector<Patch>& patches);
+
+/// For each canonical patch, its source patch (same anchors in the same cyclic order). Fails
+/// naming the first canonical patch without a counterpart.
+bool pair_patches(const std::vector<Patch>& source, const std::vector<Patch>& canonical,
+                  std::vector<int>& source_of, std::string& why);
+
+}  // namespace cadinterp::mapping

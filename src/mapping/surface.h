@@ -1,0 +1,39 @@
+// The boundary surface of a sample as a half-edge structure: which triangle lies across each
+// triangle edge. Patch layout (§6.2) walks it to grow patches and trace their boundary loops.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "builder/sample.h"
+
+namespace cadinterp::mapping {
+
+/// A point of a surface (or of an edge of it) as a convex combination of up to three vertices;
+/// unused slots have weight 0. The currency of the surface map: positions and per-vertex fields
+/// of the source are interpolated with the same weights (requirement 5).
+struct SurfacePoint {
+  std::uint32_t v[3] = {0, 0, 0};
+  double w[3] = {1, 0, 0};
+};
+
+/// Half-edge h = 3 f + k runs from triangles[3f+k] to triangles[3f+(k+1)%3].
+struct Surface {
+  const builder::Sample* sample = nullptr;
+  std::vector<int> twin;  ///< per half-edge: the opposite half-edge, -1 on an open border
+  std::uint32_t from(int h) const { return sample->triangles[static_cast<std::size_t>(h)]; }
+  std::uint32_t to(int h) const {
+    const int f = h / 3, k = h % 3;
+    return sample->triangles[static_cast<std::size_t>(3 * f + (k + 1) % 3)];
+  }
+  int triangles() const { return static_cast<int>(sample->triangle_count()); }
+  const double* position(std::uint32_t v) const { return &sample->vertices[3 * std::size_t(v)]; }
+};
+
+/// Builds the adjacency. Fails (returns false, `why`) on an edge shared by more than two
+/// triangles or used twice in the same direction: the boundary of a tet mesh is a closed
+/// oriented 2-manifold, and patch tracing relies on it.
+bool build_surface(const builder::Sample& s, Surface& out, std::string& why);
+
+}  // namespace cadinterp::mapping
