@@ -36,6 +36,15 @@ PACKAGES=(
   chromium                          # the explorer's end-to-end tests (headless)
 )
 
+# Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and
+# npm. Debian 12's own nodejs is 18, so it is not installed from here: say so plainly instead.
+node_ok=$(node -e 'const [a,b]=process.versions.node.split(".").map(Number);
+  console.log(a>20||(a===20&&b>=19)?1:0)' 2>/dev/null || echo 0)
+if [ "$node_ok" != 1 ] || ! command -v npm >/dev/null; then
+  echo "install-deps: Node.js >= 20.19 with npm is required (found: $(node --version 2>/dev/null || echo none))" >&2
+  exit 1
+fi
+
 missing=()
 for p in "${PACKAGES[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
@@ -54,3 +63,4 @@ echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+

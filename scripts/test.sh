@@ -5,6 +5,7 @@
 #   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan    the tests labelled 'concurrency' under ThreadSanitizer
 #   wasm    the runtime in WebAssembly: its JS API under Node against the conformance cases
+#   explorer `cadinterp explore` and its page in headless Chromium, against the native runtime
 #   fuzz    the libFuzzer targets (open+eval, every C ABI call, every codec) side by side for 30 s
 #           (clang, ASan + UBSan), seeded from conformance and encoder outputs
 set -euo pipefail
@@ -41,6 +42,9 @@ ctest --preset tsan -j "$JOBS" -L concurrency
 step "wasm: build the WebAssembly runtime, run its Node tests"
 scripts/test-wasm.sh 2>&1 | grep -E '^# (tests|pass|fail|skipped)'
 test "${PIPESTATUS[0]}" -eq 0
+
+step "explorer: the web page in headless Chromium against the native runtime"
+BUILD_DIR=build/release scripts/test-explorer.sh 2>&1 | grep -E '^# (tests|pass|fail|skipped)'
 
 step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
 scripts/fuzz.sh 30 2>&1 | tail -3

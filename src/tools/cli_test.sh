@@ -50,7 +50,7 @@ run 0 help -- --help && contains help out "commands:"
 run 0 help_cmd -- help eval && contains help_cmd out "usage: cadinterp eval"
 run 2 no_args -- && contains no_args err "usage: cadinterp COMMAND"
 run 0 version -- --version && contains version out "asset format"
-for c in build inspect eval bench; do
+for c in build inspect eval bench explore; do
   run 0 "help_$c" -- $c --help && contains "help_$c" out "usage: cadinterp $c" &&
     contains "help_$c" out "--help"
 done
@@ -219,6 +219,77 @@ if grep -q "^builder: yes" "$WORK/version.out"; then
   fi
 else
   echo "note: built without the builder; build not tested"
+fi
+
+# ---- explore (the embedded HTTP server; the page itself is tested by scripts/test-explorer.sh) ----
+if ! grep -q "built without" "$WORK/help_explore.out"; then
+  contains help_explore out "--web-root"
+  contains help_explore out "--port"
+  mkdir -p "$WORK/web/assets" "$WORK/wasm"
+  echo '<!doctype html><title>explorer</title>' >"$WORK/web/index.html"
+  echo 'export const x = 1;' >"$WORK/web/assets/main.js"
+  echo 'export async function load() {}' >"$WORK/wasm/cadinterp.mjs"
+  echo 'export default function () {}' >"$WORK/wasm/cadinterp_wasm.mjs"
+  printf '\0asm\1\0\0\0' >"$WORK/wasm/cadinterp_wasm.wasm"
+  SERVE=(--port 0 --web-root "$WORK/web" --wasm-dir "$WORK/wasm")
+  run 1 r_explore_checksum -- explore "$CASES/invalid/blob_checksum/asset.cadi" "${SERVE[@]}" &&
+    contains r_explore_checksum err "invalid asset" && contains r_explore_checksum err "CADINTERP_E_CHECKSUM"
+  run 1 r_explore_magic -- explore "$CASES/invalid/bad_magic/asset.cadi" "${SERVE[@]}" &&
+    contains r_explore_magic err "CADINTERP_E_BAD_MAGIC"
+  run 1 r_explore_missing -- explore "$WORK/none.cadi" "${SERVE[@]}" && contains r_explore_missing err "CADINTERP_E_IO"
+  run 2 u_explore_port -- explore "$A2" --port 70000 && contains u_explore_port err "--port must be in [0, 65535]"
+  run 1 r_explore_noweb -- explore "$A2" --port 0 --web-root "$WORK/nowhere" --wasm-dir "$WORK/wasm" &&
+    contains r_explore_noweb err "explorer page is not built"
+  run 1 r_explore_nowasm -- explore "$A2" --port 0 --web-root "$WORK/web" --wasm-dir "$WORK/nowhere" &&
+    contains r_explore_nowasm err "WebAssembly runtime is missing"
+  # Serves the page, the runtime and the asset's exact bytes with the right types; a second server
+  # on the same port fails cleanly; SIGINT stops the first with exit 0.
+  python3 - "$CLI" "$A2" "$WORK" <<'EOF' || fail "explore: serving"
+import json, re, signal, subprocess, sys, urllib.error, urllib.request
+cli, asset, work = sys.argv[1:4]
+p = subprocess.Popen([cli, "explore", asset, "--port", "0", "--web-root", work + "/web",
+                      "--wasm-dir", work + "/wasm"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                     text=True)
+try:
+    url = None
+    for line in p.stdout:
+        m = re.search(r"(http://127\.0\.0\.1:(\d+)/)", line)
+        if m:
+            url, port = m.group(1), m.group(2)
+            break
+    assert url, "no URL printed"
+    def get(path):
+        try:
+            with urllib.request.urlopen(url + path, timeout=10) as r:
+                return r.status, r.headers.get("Content-Type", ""), r.read()
+        except urllib.error.HTTPError as e:
+            return e.code, "", b""
+    st, ct, body = get("")
+    assert st == 200 and ct.startswith("text/html") and b"explorer" in body, (st, ct)
+    st, ct, _ = get("assets/main.js")
+    assert st == 200 and ct.startswith("text/javascript"), (st, ct)
+    st, ct, _ = get("wasm/cadinterp.mjs")
+    assert st == 200 and ct.startswith("text/javascript"), (st, ct)
+    st, ct, body = get("wasm/cadinterp_wasm.wasm")
+    assert st == 200 and ct == "application/wasm" and body == b"\0asm\1\0\0\0", (st, ct)
+    st, ct, body = get("api/asset.cadi")
+    assert st == 200 and ct == "application/octet-stream", (st, ct)
+    assert body == open(asset, "rb").read(), "served bytes differ from the file"
+    st, ct, body = get("api/asset.json")
+    d = json.loads(body)
+    assert d["name"] == "asset.cadi" and d["bytes"] == len(open(asset, "rb").read()), d
+    assert d["parameters"] == 2 and d["verified_elements"] == d["feasible_elements"] >= 1, d
+    assert get("no/such/file.js")[0] == 404
+    assert get("../../../../etc/passwd")[0] != 200
+    second = subprocess.run([cli, "explore", asset, "--port", port, "--web-root", work + "/web",
+                             "--wasm-dir", work + "/wasm"], capture_output=True, text=True, timeout=30)
+    assert second.returncode == 1 and "cannot listen" in second.stderr, second.stderr
+finally:
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=20)
+assert p.returncode == 0, (p.returncode, err)
+assert "stopped" in out, out
+EOF
 fi
 
 if [ "$failures" -ne 0 ]; then
