@@ -62,6 +62,18 @@ struct Convection {  ///< Robin: q = h (T_ambient - T) into the solid
   double coefficient = 0.0, ambient = 0.0;
 };
 
+/// The linear solver for the (symmetric positive definite) FE systems. `automatic` picks by the
+/// measurement recorded in physics_linear_solver.cpp (see examples/physics/README.md): Eigen's
+/// SimplicialLDLT below 1000 unknowns, conjugate_gradient_two_level above.
+enum class LinearSolver {
+  automatic,
+  cholmod,             ///< SuiteSparse CHOLMOD supernodal Cholesky (direct)
+  conjugate_gradient,  ///< Eigen ConjugateGradient, Jacobi-preconditioned
+  /// CG preconditioned by Jacobi plus a coarse space of per-aggregate rigid-body modes
+  /// (smoothed aggregation, two levels): far fewer iterations on large meshes.
+  conjugate_gradient_two_level,
+};
+
 struct Problem {
   TetMesh mesh;
   Material material;
@@ -76,6 +88,9 @@ struct Problem {
   std::vector<HeatFlux> heat_fluxes;
   std::vector<Convection> convections;
   int order = 1;  ///< element order: 1 (linear tets) or 2 (quadratic, edge nodes added inside)
+  // Appended after the first version of this header (existing fields keep their meaning).
+  LinearSolver solver = LinearSolver::automatic;
+  double cg_tolerance = 1e-10;  ///< relative residual |K u - f| / |f| for conjugate_gradient
 };
 
 struct Solution {
@@ -87,9 +102,18 @@ struct Solution {
   std::size_t dofs = 0;
   double assemble_seconds = 0.0, solve_seconds = 0.0;
   std::string solver;  ///< the linear solver used (e.g. "cholmod", "eigen-cg")
+  // Appended after the first version of this header.
+  /// #fixed by 3: total support reaction force on each Fixed region (order of Problem::fixed),
+  /// the force the support exerts on the solid; a fixed component shared by several regions is
+  /// counted in the first. With the applied loads they sum to zero (equilibrium).
+  std::vector<double> reactions;
+  int iterations = 0;  ///< conjugate-gradient iterations of the last solve (0 for a direct one)
 };
 
 /// Solves the problem. Throws Error on invalid input or a singular system.
+/// Thread-safety: reentrant (no shared state); concurrent calls on different problems are safe.
+/// Timing: assemble_seconds covers everything but the linear solves (validation, assembly,
+/// stress recovery), solve_seconds the linear solves (factorization or CG, with its setup).
 Solution solve(const Problem& problem);
 
 }  // namespace cadinterp::physics
