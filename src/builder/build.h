@@ -36,6 +36,33 @@ struct BuildInfeasible : std::runtime_error {
   explicit BuildInfeasible(const std::string& why) : std::runtime_error("build: " + why) {}
 };
 
+/// How a cubic element obtains the samples of its neighbours (paper §5.3, Fig. 15): mapped
+/// directly into its canonical mesh, or carried from the neighbour's canonical mesh through a
+/// sample on both elements (src/mapping/neighbour_transfer.h). See build.cpp for the measurement
+/// behind the default.
+enum class NeighbourTransfer {
+  Fallback,  ///< direct; through a shared sample where the direct mapping fails (default)
+  Always,    ///< through a shared sample wherever one exists, else direct
+  Direct,    ///< direct only (a failure makes the element infeasible)
+};
+
+/// What the cubic neighbour transfer did in one build (BuildResult::neighbour).
+struct NeighbourTransferStats {
+  int neighbour_terms = 0;  ///< (element, term) pairs whose sample lies outside the element
+  int direct_failed = 0;    ///< of which the direct mapping failed
+  int bridged = 0;          ///< of which were emitted through a shared sample
+  int bridge_failed = 0;    ///< bridge tried and impossible (no shared sample, mapping, inverted)
+  /// Filled when BuildOptions::measure_neighbour_transfer: both routes computed for every
+  /// neighbour term, each compared with the term's own sample (symmetric Hausdorff / its bbox
+  /// diagonal) and by the min scaled Jacobian of the mapped tets.
+  int compared = 0;           ///< terms where both routes succeeded
+  int bridged_better = 0;     ///< of which the bridge's Hausdorff is smaller
+  int bridge_inverted = 0;    ///< bridged results with inverted tets (never emitted)
+  double direct_hausdorff_max = 0, bridged_hausdorff_max = 0;
+  double direct_hausdorff_sum = 0, bridged_hausdorff_sum = 0;
+  double direct_min_sj = 1, bridged_min_sj = 1;
+};
+
 struct BuildOptions {
   core::Degree degree = core::Degree::Linear;
   double geometry_tolerance = 1e-3;  ///< relative to the bbox diagonal
@@ -49,6 +76,8 @@ struct BuildOptions {
   std::function<bool(const cadinterp_progress&)> progress;
   const Mapper* mapper = nullptr;  ///< nullptr: default_mapper()
   Executor* executor = nullptr;    ///< nullptr: a ThreadPoolExecutor with `threads`
+  NeighbourTransfer neighbour_transfer = NeighbourTransfer::Fallback;  ///< cubic only
+  bool measure_neighbour_transfer = false;  ///< fills the comparison in BuildResult::neighbour
 };
 
 /// A point where the host failed, with its message.
@@ -62,6 +91,7 @@ struct BuildResult {
   format::AssetContent content;  ///< content.basis points to *basis
   std::vector<InfeasiblePoint> infeasible;
   cadinterp_build_report report{};
+  NeighbourTransferStats neighbour;  ///< cubic builds only
 };
 
 /// The mapper a build uses unless BuildOptions::mapper says otherwise: the mesh mapper of paper

@@ -140,3 +140,98 @@ void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::v
 }
 
 }  // namespace cadinterp::mapping
+
+namespace cadinterp::mapping {
+
+std::vector<int> anchor_vertices(const Surface& s, const std::vector<const double*>& anchors,
+                                 double tolerance) {
+  std::vector<int> of(s.sample->vertex_count(), -1);
+  for (std::size_t m = 0; m < anchors.size(); ++m) {
+    const int v = vertex_at(s, anchors[m], tolerance);
+    if (v >= 0 && of[static_cast<std::size_t>(v)] < 0)
+      of[static_cast<std::size_t>(v)] = static_cast<int>(m);
+  }
+  return of;
+}
+
+namespace {
+
+// The outgoing half-edges of v in rotation order: from h (in triangle f), the half-edge into v
+// in f is prev(h); across it lies the next outgoing one. Empty on an open border.
+std::vector<int> outgoing_around(const Surface& s, const std::vector<int>& first_out,
+                                 std::uint32_t v) {
+  const int first = first_out[v];
+  const int H = 3 * s.triangles();
+  std::vector<int> ring;
+  if (first < 0) return ring;
+  int h = first;
+  do {
+    ring.push_back(h);
+    const int prev = 3 * (h / 3) + (h % 3 + 2) % 3;
+    h = s.twin[static_cast<std::size_t>(prev)];
+    if (h < 0 || ring.size() > static_cast<std::size_t>(H)) return {};
+  } while (h != first);
+  return ring;
+}
+
+}  // namespace
+
+std::vector<std::vector<int>> paths_around(const Surface& s, const std::vector<char>& cuts,
+                                           std::uint32_t v, const std::vector<int>& anchor_of,
+                                           std::vector<int>* half_edges) {
+  std::vector<std::vector<int>> far;
+  if (half_edges) half_edges->clear();
+  std::vector<int> first_out(s.sample->vertex_count(), -1);
+  for (int h = 3 * s.triangles() - 1; h >= 0; --h) first_out[s.from(h)] = h;
+  for (int h : outgoing_around(s, first_out, v)) {
+    if (!cuts[static_cast<std::size_t>(h)]) continue;
+    if (half_edges) half_edges->push_back(h);
+    std::uint32_t prev = v, cur = s.to(h);
+    std::vector<int> passed;
+    for (std::size_t steps = 0; steps <= s.sample->vertex_count() && cur != v; ++steps) {
+      if (anchor_of[cur] >= 0) passed.push_back(anchor_of[cur]);
+      std::uint32_t next = cur;
+      int degree = 0;
+      for (int g : outgoing_around(s, first_out, cur))
+        if (cuts[static_cast<std::size_t>(g)]) {
+          ++degree;
+          if (s.to(g) != prev) next = s.to(g);
+        }
+      if (degree != 2 || next == cur) break;
+      prev = cur;
+      cur = next;
+    }
+    far.push_back(std::move(passed));
+  }
+  return far;
+}
+
+bool cyclic_order_agrees(const PathEnd& a, const PathEnd& b) {
+  // The new path's neighbours around its end on one side: the anchors along the previous and
+  // the next path.
+  using Anchors = std::vector<int>;
+  auto neighbours = [](const PathEnd& e, std::pair<Anchors, Anchors>& out) {
+    std::vector<int> hs;
+    const std::vector<Anchors> far =
+        paths_around(*e.surface, *e.after, e.vertex, *e.anchor_of, &hs);
+    std::size_t i = 0;
+    while (i < hs.size() && (*e.before)[static_cast<std::size_t>(hs[i])]) ++i;
+    if (i == hs.size() || hs.size() < 3) return false;  // nothing to compare with
+    out = {far[(i + hs.size() - 1) % hs.size()], far[(i + 1) % hs.size()]};
+    return true;
+  };
+  std::pair<Anchors, Anchors> na, nb;
+  if (!neighbours(a, na) || !neighbours(b, nb)) return true;
+  // Two paths are the same layout path when they pass a common anchor (one sample may have
+  // anchors along a path that the other lacks, e.g. the ends of a one-sided edge); a path
+  // without anchors (ending at a junction) matches anything: only named anchors can disagree.
+  auto same = [](const Anchors& x, const Anchors& y) {
+    if (x.empty() || y.empty()) return true;
+    for (int p : x)
+      if (std::find(y.begin(), y.end(), p) != y.end()) return true;
+    return false;
+  };
+  return same(na.first, nb.first) && same(na.second, nb.second);
+}
+
+}  // namespace cadinterp::mapping

@@ -41,6 +41,37 @@ std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<cha
                                          const std::vector<int>* patch_of = nullptr,
                                          int patch = -1);
 
+/// One side of the cyclic-order check: the surface, its cuts before and after adding a layout
+/// path, the path's end vertex, and per surface vertex its anchor index (-1 for none).
+struct PathEnd {
+  const Surface* surface = nullptr;
+  const std::vector<char>* before = nullptr;
+  const std::vector<char>* after = nullptr;
+  std::uint32_t vertex = 0;
+  const std::vector<int>* anchor_of = nullptr;
+};
+
+/// The layout paths leaving vertex v in cyclic order around it (the same rotation on both
+/// samples, whose surfaces are oriented outward), each as the anchors it passes, in order:
+/// followed along cut edges through vertices of cut degree 2, up to the first vertex of another
+/// degree (a junction or a path's end). `half_edges` (may be null) gets each path's first
+/// half-edge.
+std::vector<std::vector<int>> paths_around(const Surface& s, const std::vector<char>& cuts,
+                                           std::uint32_t v, const std::vector<int>& anchor_of,
+                                           std::vector<int>* half_edges);
+
+/// Kraevoy–Sheffer's cyclic-order condition at one end of a new layout path: the path's
+/// neighbours in the cyclic order around its end (the far anchors of the previous and next
+/// path) must be the same on both samples; otherwise the path passes the anchor on the other
+/// side of an existing path on one sample and the patches it makes cannot correspond. True when
+/// they agree (or the end has no other path).
+bool cyclic_order_agrees(const PathEnd& a, const PathEnd& b);
+
+/// Per surface vertex, the index of the anchor at it (-1 for none); anchors not at a vertex
+/// within `tolerance` are left out.
+std::vector<int> anchor_vertices(const Surface& s, const std::vector<const double*>& anchors,
+                                 double tolerance);
+
 /// Marks both half-edges of every edge along `chain` as cut.
 void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts);
 

@@ -4,10 +4,21 @@
 //          boundary Hausdorff (max, 99th percentile, relative to the bbox diagonal), min scaled
 //          Jacobian, inverted tets, boundary-condition region areas, field error against the
 //          closed form at the mapped points, and ms per mapping; then ms vs vertex count.
+//          With --host LIB.so --model NAME [--host-options S]: any host library's model
+//          (e.g. examples/hosts/occt), loaded with dlopen; field error is then n/a.
+//   cubic  cubic builds with each neighbour transfer (§5.3, Fig. 15: direct, through a shared
+//          sample always, direct with the bridge as fallback): how often the direct mapping of
+//          a neighbour's sample fails, both routes against the sample itself, and the asset's
+//          accuracy against the host.
 //   sweep  builds an asset with the mesh mapper and writes a VTU sequence sweeping one
 //          parameter across the box (others at the centre), to watch for flicker or jumps.
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstring>
+#include <memory>
+#include <set>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,9 +27,11 @@
 #include <vector>
 
 #include "analytic_host.h"
+#include "builder/build.h"
 #include "builder/builder_e2e.h"
 #include "builder/host_call.h"
 #include "cadinterp/cadinterp.h"
+#include "format/asset_writer.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
@@ -37,6 +50,37 @@ const cadinterp_host* open_host(const std::string& model, const std::string& opt
   return h;
 }
 
+// A host library's entry (cadinterp_host_entry_fn), loaded with dlopen as `cadinterp build
+// --host` does. The library stays loaded for the life of the process: the host it returns
+// points into it.
+const cadinterp_host* open_library_host(const std::string& library, const std::string& model,
+                                        const std::string& options) {
+  void* lib = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!lib) {
+    const char* e = dlerror();
+    throw std::runtime_error("cannot load host library " + library + ": " +
+                             (e ? e : "unknown error"));
+  }
+  void* sym = dlsym(lib, CADINTERP_HOST_ENTRY_NAME);
+  if (!sym)
+    throw std::runtime_error(library + " exports no " CADINTERP_HOST_ENTRY_NAME " function");
+  cadinterp_host_entry_fn entry = nullptr;
+  // POSIX: a function pointer obtained from dlsym is usable as such.
+  std::memcpy(&entry, &sym, sizeof entry);
+  const char* err = nullptr;
+  const cadinterp_host* h = entry(model.c_str(), options.c_str(), &err);
+  if (!h) throw std::runtime_error(model + ": " + (err ? err : "the host refused the model"));
+  return h;
+}
+
+// True when the two samples' B-rep faces differ (the set of triangle tags): a pair across a
+// topology change.
+bool faces_differ(const builder::Sample& a, const builder::Sample& b) {
+  const std::set<std::int32_t> fa(a.triangle_tags.begin(), a.triangle_tags.end());
+  const std::set<std::int32_t> fb(b.triangle_tags.begin(), b.triangle_tags.end());
+  return fa != fb;
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -44,22 +88,38 @@ double percentile(std::vector<double> v, double q) {
 }
 
 int pairs(const std::vector<std::string>& args) {
-  std::string model = "plate", options = "edge=5";
+  std::string model = "plate", options = "edge=5", library, host_options;
   int count = 40, seed = 1;
   std::string sizes = "8,5,3,2,1.5";
+  bool sizes_given = false;
+  mapping::MapOptions mo;
   cli::ArgParser p("cadinterp-mapping-report pairs", "",
                    "Maps random (source, canonical) sample pairs of an analytic model and prints "
                    "the quality table, then ms per mapping against the vertex count.");
-  p.option("model", 'm', "NAME", "analytic model (plate, bracket, ...)", &model);
+  p.option("model", 'm', "NAME", "model (analytic: plate, bracket, ...; or of --host)", &model);
   p.option("options", 'o', "K=V,...", "the model's options", &options);
   p.option("pairs", 'n', "N", "random pairs", &count, 1, 100000);
   p.option("seed", 's', "N", "random seed", &seed, 0, 1 << 30);
   p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
+  p.option("host", 0, "LIB.so",
+           "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
+           &library);
+  p.option("host-options", 0, "STRING", "the model's options for --host", &host_options);
+  p.option("relax", 0, "N", "sweeps of the in-patch relaxation (0: none)", &mo.relax_iterations, 0,
+           100000);
   if (!p.parse(args)) return 0;
+  for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;
 
-  const cadinterp_host* h = open_host(model, options);
+  // Field truth in closed form exists for the analytic host only; another host's fields are
+  // reported as n/a (its own fields at the mapped points are what the transfer interpolates, so
+  // comparing with them would measure nothing).
+  const bool analytic = library.empty();
+  if (!analytic) options = host_options;
+  if (!analytic && !sizes_given) sizes.clear();
+  const cadinterp_host* h =
+      analytic ? open_host(model, options) : open_library_host(library, model, options);
   const builder::Host host(*h);
-  const analytic_model* am = analytic_host_model(h);
+  const analytic_model* am = analytic ? analytic_host_model(h) : nullptr;
   std::mt19937 rng(static_cast<unsigned>(seed));
   auto random_x = [&] {
     std::vector<double> x(static_cast<std::size_t>(host.dim()));
@@ -67,39 +127,55 @@ int pairs(const std::vector<std::string>& args) {
       x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
     return x;
   };
-  std::printf("model %s (%s), %d random pairs\n", model.c_str(), options.c_str(), count);
-  std::printf("%6s %6s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "V_src", "V_can", "ms",
-              "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err", "field_max",
+  std::printf("model %s (%s)%s%s, %d random pairs\n", model.c_str(), options.c_str(),
+              analytic ? "" : " from ", analytic ? "" : library.c_str(), count);
+  std::printf("%6s %6s %4s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "V_src", "V_can", "topo",
+              "ms", "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err", "field_max",
               "field_p99");
-  std::vector<double> haus, haus99, area, field, field99;
+  std::vector<double> haus, haus99, area, field, field99, times, sizes_v;
   double min_sj = 1;
-  std::size_t inverted = 0, failed = 0, differing = 0;
+  std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, infeasible = 0;
   for (int i = 0; i < count; ++i) {
     const std::vector<double> xa = random_x(), xc = random_x();
     const builder::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
-    if (!a.feasible || !c.feasible) continue;
+    if (!a.feasible || !c.feasible) {
+      ++infeasible;
+      continue;
+    }
     differing += builder::same_combinatorics(a, c) ? 0 : 1;
+    const bool topo = faces_differ(a, c);
+    topology += topo ? 1 : 0;
     builder::MappedSample m;
     std::string why;
     const auto t0 = Clock::now();
-    const bool ok = mapping::map_sample(a, c, m, why);
+    const bool ok = mapping::map_sample(a, c, m, why, nullptr, mo);
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (!ok) {
       ++failed;
-      std::printf("%6zu %6zu %8.2f FAILED: %s\n", a.vertex_count(), c.vertex_count(), ms,
-                  why.c_str());
+      std::printf("%6zu %6zu %4s %8.2f FAILED: %s\n", a.vertex_count(), c.vertex_count(),
+                  topo ? "T" : "-", ms, why.c_str());
       continue;
     }
     const mapping::PairQuality q =
-        mapping::measure_pair(a, c, m, [&](int f, const double* pt, double* v) {
-          return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
-        });
+        mapping::measure_pair(a, c, m,
+                              am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
+                                return analytic_model_field_at(am, f, xa.data(), pt, v) ==
+                                       CADINTERP_OK;
+                              })
+                                 : mapping::FieldTruth());
     // The canonical mesh's own quality, for comparison: the mapping cannot do better.
     const double own = mapping::tet_quality(c.vertices, c.tets).min_scaled_jacobian;
-    std::printf("%6zu %6zu %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10.2e %10.2e\n",
-                a.vertex_count(), c.vertex_count(), ms, q.hausdorff_max, q.hausdorff_p99,
-                q.min_scaled_jacobian, own, q.inverted, q.region_area_error, q.field_max,
-                q.field_p99);
+    char fmax[16] = "n/a", f99[16] = "n/a";
+    if (am) {
+      std::snprintf(fmax, sizeof fmax, "%.2e", q.field_max);
+      std::snprintf(f99, sizeof f99, "%.2e", q.field_p99);
+    }
+    std::printf("%6zu %6zu %4s %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n",
+                a.vertex_count(), c.vertex_count(), topo ? "T" : "-", ms, q.hausdorff_max,
+                q.hausdorff_p99, q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax,
+                f99);
+    times.push_back(ms);
+    sizes_v.push_back(static_cast<double>(c.vertex_count()));
     haus.push_back(q.hausdorff_max);
     haus99.push_back(q.hausdorff_p99);
     area.push_back(q.region_area_error);
@@ -112,11 +188,27 @@ int pairs(const std::vector<std::string>& args) {
     return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
   };
   std::printf(
-      "summary: %zu mapped (%zu with differing combinatorics), %zu failed; Hausdorff max %.2e, "
+      "summary: %zu mapped (%zu with differing combinatorics, %zu across a B-rep face change), "
+      "%zu failed, %zu pairs skipped (a sample infeasible); Hausdorff max %.2e, "
       "p99 over pairs of per-pair p99 %.2e (target 1e-3); min scaled Jacobian %.3f; inverted %zu;"
-      " region area error max %.2e (target 1e-2); field error max %.2e, p99 %.2e\n",
-      haus.size(), differing, failed, mx(haus), percentile(haus99, 0.99), min_sj, inverted,
-      mx(area), mx(field), percentile(field99, 0.99));
+      " region area error max %.2e (target 1e-2); ",
+      haus.size(), differing, topology, failed, infeasible, mx(haus), percentile(haus99, 0.99),
+      min_sj, inverted, mx(area));
+  if (am)
+    std::printf("field error max %.2e, p99 %.2e\n", mx(field), percentile(field99, 0.99));
+  else
+    std::printf("field error n/a (no closed-form truth for this host)\n");
+  if (!times.empty()) {
+    double tsum = 0, vsum = 0;
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      tsum += times[i];
+      vsum += sizes_v[i];
+    }
+    std::printf("time per mapping: mean %.1f ms, max %.1f ms, at mean V_can %.0f (%.1f us per "
+                "canonical vertex)\n",
+                tsum / double(times.size()), mx(times), vsum / double(times.size()),
+                1e3 * tsum / vsum);
+  }
 
   // ms per mapping against the vertex count: the plate at one shape pair, finer and finer.
   const std::vector<std::string> edges = cli::split_list(sizes);
@@ -134,7 +226,7 @@ int pairs(const std::vector<std::string>& args) {
     int reps = 0;
     const auto t0 = Clock::now();
     do {
-      if (!mapping::map_sample(a, c, m, why)) {
+      if (!mapping::map_sample(a, c, m, why, nullptr, mo)) {
         std::printf("%8s FAILED: %s\n", e.c_str(), why.c_str());
         break;
       }
@@ -146,6 +238,68 @@ int pairs(const std::vector<std::string>& args) {
                 c.tet_count(), ms);
   }
   return failed ? 1 : 0;
+}
+
+int cubic(const std::vector<std::string>& args) {
+  std::string model = "plate", options = "edge=8", out_dir = "/tmp";
+  int samples = 200, points = 60, threads = 2, compare = 1;
+  cli::ArgParser p("cadinterp-mapping-report cubic", "",
+                   "Cubic builds of an analytic model with each neighbour transfer (paper §5.3, "
+                   "Fig. 15); prints how the direct mapping and the shared-sample bridge compare "
+                   "on every neighbour sample, and each asset's accuracy against the host.");
+  p.option("model", 'm', "NAME", "analytic model", &model);
+  p.option("options", 'o', "K=V,...", "the model's options", &options);
+  p.option("samples", 0, "N", "the build's sample budget", &samples, 2, 100000);
+  p.option("points", 0, "N", "random points for the accuracy", &points, 1, 100000);
+  p.option("threads", 0, "N", "build threads", &threads, 1, 256);
+  p.option("out", 0, "DIR", "where the assets go", &out_dir);
+  p.option("compare", 0, "0|1",
+           "compute both routes for every neighbour sample (0: build times without it)", &compare,
+           0, 1);
+  if (!p.parse(args)) return 0;
+  const cadinterp_host* h = open_host(model, options);
+  const builder::Host host(*h);
+  const analytic_model* am = analytic_host_model(h);
+  std::printf("model %s (%s), cubic, %d samples\n", model.c_str(), options.c_str(), samples);
+  std::printf("%-9s %7s %7s %8s %7s %7s %7s | %8s %8s %10s %10s %10s %10s %7s %7s | %9s %9s %9s\n",
+              "transfer", "build_s", "samples", "elements", "infeas", "nb_term", "dir_fail", "bridged",
+              "br_fail", "dir_h_mean", "br_h_mean", "dir_h_max", "br_h_max", "dir_sj", "br_sj",
+              "geom_max", "geom_p99", "temp_max");
+  const std::pair<builder::NeighbourTransfer, const char*> modes[] = {
+      {builder::NeighbourTransfer::Direct, "direct"},
+      {builder::NeighbourTransfer::Always, "always"},
+      {builder::NeighbourTransfer::Fallback, "fallback"}};
+  for (const auto& [mode, name] : modes) {
+    builder::BuildOptions o;
+    o.degree = core::Degree::Cubic;
+    o.max_samples = samples;
+    o.threads = threads;
+    o.neighbour_transfer = mode;
+    o.measure_neighbour_transfer = compare != 0;
+    builder::BuildResult r = builder::build(host, o);
+    const std::string path = out_dir + "/cadinterp-cubic-" + model + "-" + name + ".cadi";
+    format::WriteOptions w;
+    format::write_asset_file(r.content, w, path);
+    const builder::AccuracyReport a = builder::measure_accuracy(
+        path, host, points, 7, [am](int f, const double* x, const double* pt, double* v) {
+          return f == 0 && analytic_model_field_at(am, f, x, pt, v) == CADINTERP_OK;
+        });
+    const builder::NeighbourTransferStats& st = r.neighbour;
+    const double c = std::max(1, st.compared);
+    std::printf(
+        "%-9s %7.1f %7d %8d %7d %7d %7d | %8d %8d %10.2e %10.2e %10.2e %10.2e %7.3f %7.3f | %9.2e %9.2e "
+        "%9.2e\n",
+        name, r.report.wall_seconds, r.report.samples, r.report.elements, r.report.infeasible_elements,
+        st.neighbour_terms, st.direct_failed, st.bridged, st.bridge_failed,
+        st.direct_hausdorff_sum / c, st.bridged_hausdorff_sum / c, st.direct_hausdorff_max,
+        st.bridged_hausdorff_max, st.direct_min_sj, st.bridged_min_sj, a.geometry_max,
+        a.geometry_p99, a.field_max);
+    std::printf("          (%d terms compared; bridge better on %d; bridged results with inverted "
+                "tets: %d)\n",
+                st.compared, st.bridged_better, st.bridge_inverted);
+    std::filesystem::remove(path);
+  }
+  return 0;
 }
 
 int sweep(const std::vector<std::string>& args) {
@@ -241,9 +395,11 @@ int main(int argc, char** argv) {
   try {
     if (command == "pairs") return pairs(args);
     if (command == "sweep") return sweep(args);
+    if (command == "cubic") return cubic(args);
     std::printf(
-        "usage: cadinterp-mapping-report pairs|sweep [options] (--help for each)\n"
+        "usage: cadinterp-mapping-report pairs|cubic|sweep [options] (--help for each)\n"
         "  pairs  quality table of the mesh mapper over random sample pairs\n"
+        "  cubic  cubic builds: direct vs shared-sample neighbour transfer (§5.3)\n"
         "  sweep  VTU sequence of a built asset sweeping one parameter\n");
     return command.empty() || command == "--help" ? 0 : 2;
   } catch (const cli::UsageError& e) {

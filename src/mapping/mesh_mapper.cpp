@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "builder/surface_distance.h"
 #include "mapping/correspondence.h"
 #include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
@@ -61,6 +62,207 @@ SurfacePoint loop_point(const Patch& p, double s) {
   return sp;
 }
 
+// The source surface point at disk coordinates uv (sd's triangle containing it).
+SurfacePoint disk_point(const DiskMap& sd, const DiskLocator& locator, const double* uv,
+                        int* triangle = nullptr) {
+  int tri;
+  double w[3];
+  locator.locate(uv[0], uv[1], tri, w);
+  SurfacePoint p;
+  for (int k = 0; k < 3; ++k) {
+    p.v[k] = sd.vertices[static_cast<std::size_t>(sd.triangles[3 * std::size_t(tri) + std::size_t(k)])];
+    p.w[k] = w[k];
+  }
+  if (triangle) *triangle = tri;
+  return p;
+}
+
+void position_of(const builder::Sample& s, const SurfacePoint& p, double* x) {
+  for (int a = 0; a < 3; ++a) {
+    x[a] = 0;
+    for (int k = 0; k < 3; ++k) x[a] += p.w[k] * s.vertices[3 * std::size_t(p.v[k]) + std::size_t(a)];
+  }
+}
+
+// In-patch relaxation (§6.3). Composing the two disk maps places a canonical vertex where the
+// canonical's and the source's parametrizations agree, not where the canonical mesh's own
+// spacing would put it on the source: on a curved face whose two samples are parametrized with
+// different distortion, vertices slide within the face, triangles stretch along the curvature
+// and their chords cut deeper into it (the bracket's Hausdorff at 1.01e-3 of its diagonal).
+// Each sweep moves every inner vertex towards the mean-value-weighted average of its
+// neighbours' mapped positions, with the weights of the canonical mesh (Floater 2003, the same
+// weights as its disk map), so the fixed point is the canonical mesh's local shape laid onto the
+// source. The 3-D step is taken in the source disk through the containing triangle's affine
+// map (least squares), so every vertex stays exactly on the source surface; loop vertices stay
+// fixed. Where both samples are flat and equal the canonical positions are already the fixed
+// point (mean-value weights reproduce linear functions), so nothing moves. Jacobi sweeps in a
+// fixed order: deterministic.
+void relax_in_patch(const builder::Sample& source, const builder::Sample& canonical,
+                    const DiskMap& cd, const DiskMap& sd, const DiskLocator& locator,
+                    const std::vector<std::size_t>& inner, const std::vector<SurfacePoint>& where,
+                    int iterations, std::vector<double>& uv) {
+  if (iterations <= 0 || inner.empty()) return;
+  const std::size_t n = cd.vertices.size();
+  // Canonical mean-value weights of every inner vertex's neighbours (sorted by neighbour).
+  std::vector<char> is_inner(n, 0);
+  for (std::size_t l : inner) is_inner[l] = 1;
+  std::vector<std::vector<std::pair<int, double>>> nbr(n);
+  const std::size_t T = cd.triangles.size() / 3;
+  for (std::size_t t = 0; t < T; ++t)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const auto i = static_cast<std::size_t>(cd.triangles[3 * t + c]);
+      if (!is_inner[i]) continue;
+      const int j = cd.triangles[3 * t + (c + 1) % 3], k = cd.triangles[3 * t + (c + 2) % 3];
+      const double* xi = &canonical.vertices[3 * std::size_t(cd.vertices[i])];
+      const double* xj = &canonical.vertices[3 * std::size_t(cd.vertices[std::size_t(j)])];
+      const double* xk = &canonical.vertices[3 * std::size_t(cd.vertices[std::size_t(k)])];
+      double e1[3], e2[3];
+      for (int a = 0; a < 3; ++a) {
+        e1[a] = xj[a] - xi[a];
+        e2[a] = xk[a] - xi[a];
+      }
+      const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+      const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+      if (!(l1 > 0) || !(l2 > 0)) continue;
+      const double cosa =
+          std::clamp((e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / (l1 * l2), -1.0, 1.0);
+      const double h = std::tan(0.5 * std::acos(cosa));
+      nbr[i].emplace_back(j, h / l1);
+      nbr[i].emplace_back(k, h / l2);
+    }
+  std::vector<double> X(3 * n, 0.0);
+  std::vector<int> tri(n, -1);
+  for (std::size_t l = 0; l < n; ++l)
+    if (!is_inner[l]) position_of(source, where[cd.vertices[l]], &X[3 * l]);
+  std::vector<double> next(uv);
+  for (int it = 0; it < iterations; ++it) {
+    for (std::size_t l : inner) position_of(source, disk_point(sd, locator, &uv[2 * l], &tri[l]), &X[3 * l]);
+    for (std::size_t l : inner) {
+      double target[3] = {0, 0, 0}, wsum = 0;
+      for (const auto& [j, w] : nbr[l]) {
+        for (int a = 0; a < 3; ++a) target[a] += w * X[3 * std::size_t(j) + std::size_t(a)];
+        wsum += w;
+      }
+      if (!(wsum > 0)) continue;
+      double d[3];
+      for (int a = 0; a < 3; ++a) d[a] = target[a] / wsum - X[3 * l + std::size_t(a)];
+      // The step in the containing source triangle's frame, carried to the disk.
+      const int* q = &sd.triangles[3 * std::size_t(tri[l])];
+      const double* pa = &source.vertices[3 * std::size_t(sd.vertices[std::size_t(q[0])])];
+      const double* pb = &source.vertices[3 * std::size_t(sd.vertices[std::size_t(q[1])])];
+      const double* pc = &source.vertices[3 * std::size_t(sd.vertices[std::size_t(q[2])])];
+      double e1[3], e2[3];
+      for (int a = 0; a < 3; ++a) {
+        e1[a] = pb[a] - pa[a];
+        e2[a] = pc[a] - pa[a];
+      }
+      const double a11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2];
+      const double a12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2];
+      const double a22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+      const double b1 = e1[0] * d[0] + e1[1] * d[1] + e1[2] * d[2];
+      const double b2 = e2[0] * d[0] + e2[1] * d[1] + e2[2] * d[2];
+      const double det = a11 * a22 - a12 * a12;
+      if (!(det > 1e-300)) continue;
+      const double s = (b1 * a22 - b2 * a12) / det, t = (a11 * b2 - a12 * b1) / det;
+      const double* ua = &sd.uv[2 * std::size_t(q[0])];
+      const double* ub = &sd.uv[2 * std::size_t(q[1])];
+      const double* uc = &sd.uv[2 * std::size_t(q[2])];
+      constexpr double kDamping = 0.8;
+      double u = uv[2 * l] + kDamping * (s * (ub[0] - ua[0]) + t * (uc[0] - ua[0]));
+      double v = uv[2 * l + 1] + kDamping * (s * (ub[1] - ua[1]) + t * (uc[1] - ua[1]));
+      // Inner vertices stay inside the disk (the loop is on its circle).
+      const double r = std::hypot(u, v);
+      if (r > 0.999) {
+        u *= 0.999 / r;
+        v *= 0.999 / r;
+      }
+      next[2 * l] = u;
+      next[2 * l + 1] = v;
+    }
+    for (std::size_t l : inner) {
+      uv[2 * l] = next[2 * l];
+      uv[2 * l + 1] = next[2 * l + 1];
+    }
+  }
+}
+
+// 6 x the signed volume of tet t with positions x.
+double six_volume(const std::vector<double>& x, const std::uint32_t* t) {
+  const double* p[4];
+  for (int i = 0; i < 4; ++i) p[i] = &x[3 * std::size_t(t[i])];
+  double a[3], b[3], c[3];
+  for (int k = 0; k < 3; ++k) {
+    a[k] = p[1][k] - p[0][k];
+    b[k] = p[2][k] - p[0][k];
+    c[k] = p[3][k] - p[0][k];
+  }
+  return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+         a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+// Local untangling after the harmonic interior (§6.4): a large shape change can leave a few
+// slivers of a host's mesh inverted (measured on the OpenCASCADE wrench: 1 or 2 of ~13000 tets
+// over random pairs across the whole box). Each interior vertex of an inverted tet is moved to
+// the mean of its tet neighbours' positions, in a fixed order, and the move is kept only when it
+// leaves fewer inverted tets around that vertex and inverts none that was valid. Boundary
+// vertices never move (the surface map is the mapping). Returns the tets still inverted.
+std::size_t untangle(const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
+                     double min_six_volume, std::vector<double>& x) {
+  const std::size_t T = tets.size() / 4, V = x.size() / 3;
+  auto bad = [&](std::size_t t) { return !(six_volume(x, &tets[4 * t]) > min_six_volume); };
+  std::vector<std::size_t> inverted;
+  for (std::size_t t = 0; t < T; ++t)
+    if (bad(t)) inverted.push_back(t);
+  if (inverted.empty()) return 0;
+  std::vector<std::vector<std::uint32_t>> tets_of(V);
+  for (std::size_t t = 0; t < T; ++t)
+    for (int i = 0; i < 4; ++i) tets_of[tets[4 * t + std::size_t(i)]].push_back(std::uint32_t(t));
+  for (int round = 0; round < 20 && !inverted.empty(); ++round) {
+    std::vector<std::uint32_t> movable;
+    for (std::size_t t : inverted)
+      for (int i = 0; i < 4; ++i)
+        if (!fixed[tets[4 * t + std::size_t(i)]]) movable.push_back(tets[4 * t + std::size_t(i)]);
+    std::sort(movable.begin(), movable.end());
+    movable.erase(std::unique(movable.begin(), movable.end()), movable.end());
+    if (movable.empty()) break;
+    bool moved = false;
+    for (std::uint32_t v : movable) {
+      auto count_bad = [&] {
+        std::size_t n = 0;
+        for (std::uint32_t t : tets_of[v]) n += bad(t) ? 1 : 0;
+        return n;
+      };
+      const std::size_t before = count_bad();
+      if (before == 0) continue;
+      double mean[3] = {0, 0, 0};
+      std::size_t n = 0;
+      for (std::uint32_t t : tets_of[v])
+        for (int i = 0; i < 4; ++i) {
+          const std::uint32_t w = tets[4 * std::size_t(t) + std::size_t(i)];
+          if (w == v) continue;
+          for (int a = 0; a < 3; ++a) mean[a] += x[3 * std::size_t(w) + std::size_t(a)];
+          ++n;
+        }
+      if (n == 0) continue;
+      double old[3];
+      for (int a = 0; a < 3; ++a) {
+        old[a] = x[3 * std::size_t(v) + std::size_t(a)];
+        x[3 * std::size_t(v) + std::size_t(a)] = mean[a] / double(n);
+      }
+      if (count_bad() < before) {
+        moved = true;
+      } else {
+        for (int a = 0; a < 3; ++a) x[3 * std::size_t(v) + std::size_t(a)] = old[a];
+      }
+    }
+    inverted.clear();
+    for (std::size_t t = 0; t < T; ++t)
+      if (bad(t)) inverted.push_back(t);
+    if (!moved) break;
+  }
+  return inverted.size();
+}
+
 bool same_field_layout(const builder::Sample& a, const builder::Sample& b) {
   if (a.fields.size() != b.fields.size()) return false;
   for (std::size_t i = 0; i < a.fields.size(); ++i)
@@ -73,7 +275,8 @@ bool same_field_layout(const builder::Sample& a, const builder::Sample& b) {
 }  // namespace
 
 bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
-                builder::MappedSample& out, std::string& why, MapStats* stats) {
+                builder::MappedSample& out, std::string& why, MapStats* stats,
+                const MapOptions& options) {
   why.clear();
   if (!source.feasible || !canonical.feasible) {
     why = "mapping: both samples must be feasible";
@@ -102,9 +305,29 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     return false;
   }
   // §6.1: correspondence by equal IDs only.
-  const Correspondence corr = correspond(source, canonical);
+  Correspondence corr = correspond(source, canonical);
   if (corr.matched_points == 0) {
     why = "mapping: the samples have no control point with the same ID";
+    return false;
+  }
+  // Points and paths are placed on the mesh (cadinterp_builder.h); the tolerance only absorbs
+  // rounding.
+  const double src_tol = 1e-6 * source.bbox_diagonal();
+  const double can_tol = 1e-6 * canonical.bbox_diagonal();
+  // An anchor must be a mesh vertex on both sides: one that is a vertex on one side only would
+  // sit on a patch loop there and not on the other, and no patch could be paired (measured on
+  // the OpenCASCADE host, whose mesher may move the boundary off a control point). Such
+  // anchors are dropped on both sides; the others still fix the layout.
+  const std::size_t before_drop = corr.anchors.size();
+  corr.anchors.erase(std::remove_if(corr.anchors.begin(), corr.anchors.end(),
+                                    [&](const Anchor& a) {
+                                      return vertex_at(ss, a.source, src_tol) < 0 ||
+                                             vertex_at(cs, a.canonical, can_tol) < 0;
+                                    }),
+                     corr.anchors.end());
+  const std::size_t dropped_anchors = before_drop - corr.anchors.size();
+  if (corr.anchors.empty()) {
+    why = "mapping: no matched control point is a mesh vertex in both samples";
     return false;
   }
   std::vector<const double*> src_anchor, can_anchor;
@@ -112,10 +335,6 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     src_anchor.push_back(a.source);
     can_anchor.push_back(a.canonical);
   }
-  // Points and paths are placed on the mesh (cadinterp_builder.h); the tolerance only absorbs
-  // rounding.
-  const double src_tol = 1e-6 * source.bbox_diagonal();
-  const double can_tol = 1e-6 * canonical.bbox_diagonal();
   // §6.2: the common layout. CAD paths of both samples first; then each CAD edge of one side
   // only, shortest first, where the other side has a path between the same anchors.
   std::set<Id> src_keys = corr.common_edges, can_keys = corr.common_edges;
@@ -126,6 +345,9 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     for (const auto& chain : traced) cut_along(s, chain, cuts);
     return cuts;
   };
+  const std::vector<int> src_anchor_of = anchor_vertices(ss, src_anchor, src_tol);
+  const std::vector<int> can_anchor_of = anchor_vertices(cs, can_anchor, can_tol);
+  std::size_t rejected_paths = 0;
   std::vector<char> src_cuts = cuts_of(ss, src_keys, src_traced, src_tol);
   std::vector<char> can_cuts = cuts_of(cs, can_keys, can_traced, can_tol);
   for (const OneSidedEdge& e : one_sided_edges(source, canonical, corr, src_tol, can_tol)) {
@@ -140,15 +362,41 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
         shortest_path(other, e.in_source ? can_cuts : src_cuts, static_cast<std::uint32_t>(v0),
                       static_cast<std::uint32_t>(v1));
     if (chain.size() < 2) continue;
+    // Kraevoy–Sheffer's cyclic-order check at both ends before the path is accepted: a path that
+    // leaves an anchor between other neighbours than its counterpart does would make patches
+    // that cannot be paired (or pair them twisted); such a candidate is dropped and its faces
+    // merge on both sides instead.
+    std::set<Id> next_src_keys = src_keys, next_can_keys = can_keys;
+    std::vector<std::vector<std::uint32_t>> next_src_traced = src_traced,
+                                             next_can_traced = can_traced;
     if (e.in_source) {
-      src_keys.insert(e.key);
-      can_traced.push_back(std::move(chain));
+      next_src_keys.insert(e.key);
+      next_can_traced.push_back(std::move(chain));
     } else {
-      can_keys.insert(e.key);
-      src_traced.push_back(std::move(chain));
+      next_can_keys.insert(e.key);
+      next_src_traced.push_back(std::move(chain));
     }
-    src_cuts = cuts_of(ss, src_keys, src_traced, src_tol);
-    can_cuts = cuts_of(cs, can_keys, can_traced, can_tol);
+    std::vector<char> next_src_cuts = cuts_of(ss, next_src_keys, next_src_traced, src_tol);
+    std::vector<char> next_can_cuts = cuts_of(cs, next_can_keys, next_can_traced, can_tol);
+    bool agree = true;
+    for (int end = 0; end < 2 && agree; ++end) {
+      const Anchor& a = corr.anchors[static_cast<std::size_t>(e.anchor[end])];
+      const int vs = vertex_at(ss, a.source, src_tol), vc = vertex_at(cs, a.canonical, can_tol);
+      if (vs < 0 || vc < 0) continue;
+      agree = cyclic_order_agrees(
+          {&ss, &src_cuts, &next_src_cuts, static_cast<std::uint32_t>(vs), &src_anchor_of},
+          {&cs, &can_cuts, &next_can_cuts, static_cast<std::uint32_t>(vc), &can_anchor_of});
+    }
+    if (!agree) {
+      ++rejected_paths;
+      continue;
+    }
+    src_keys = std::move(next_src_keys);
+    can_keys = std::move(next_can_keys);
+    src_traced = std::move(next_src_traced);
+    can_traced = std::move(next_can_traced);
+    src_cuts = std::move(next_src_cuts);
+    can_cuts = std::move(next_can_cuts);
   }
   // Patches with holes (a face with a hole, faces merged around one) are subdivided: two
   // shortest paths from the first loop to a hole, between the same anchors on both sides,
@@ -278,20 +526,39 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       return false;
     }
     const DiskLocator locator(sd);
-    for (std::size_t l = 0; l < cd.vertices.size(); ++l) {
-      const std::uint32_t v = cd.vertices[l];
-      if (assigned[v]) continue;
-      int tri;
-      double w[3];
-      locator.locate(cd.uv[2 * l], cd.uv[2 * l + 1], tri, w);
-      SurfacePoint p;
-      for (int k = 0; k < 3; ++k) {
-        p.v[k] = sd.vertices[static_cast<std::size_t>(
-            sd.triangles[3 * std::size_t(tri) + std::size_t(k)])];
-        p.w[k] = w[k];
-      }
-      where[v] = p;
-      assigned[v] = 1;
+    std::vector<std::size_t> inner;  // local vertices of cd placed through the disks
+    for (std::size_t l = 0; l < cd.vertices.size(); ++l)
+      if (!assigned[cd.vertices[l]]) inner.push_back(l);
+    for (std::size_t l : inner) {
+      where[cd.vertices[l]] = disk_point(sd, locator, &cd.uv[2 * l]);
+      assigned[cd.vertices[l]] = 1;
+    }
+    if (options.relax_iterations > 0 && !inner.empty()) {
+      // The relaxation is kept only where it brings this patch nearer to the source's (the
+      // larger distance from a source patch vertex to the mapped patch, the builder's
+      // vertex-sampled Hausdorff): measured on the bracket it lowers the worst pairs but not
+      // every pair (cadinterp-mapping-report pairs --relax).
+      std::vector<double> uv = cd.uv;
+      relax_in_patch(source, canonical, cd, sd, locator, inner, where, options.relax_iterations,
+                     uv);
+      std::vector<SurfacePoint> relaxed(inner.size());
+      for (std::size_t i = 0; i < inner.size(); ++i)
+        relaxed[i] = disk_point(sd, locator, &uv[2 * inner[i]]);
+      auto gap = [&](const std::vector<SurfacePoint>* moved) {
+        std::vector<double> P(3 * cd.vertices.size());
+        std::size_t i = 0;
+        for (std::size_t l = 0; l < cd.vertices.size(); ++l) {
+          const bool is_moved = moved && i < inner.size() && inner[i] == l;
+          position_of(source, is_moved ? (*moved)[i++] : where[cd.vertices[l]], &P[3 * l]);
+        }
+        const std::vector<std::uint32_t> F(cd.triangles.begin(), cd.triangles.end());
+        const builder::SurfaceIndex index(P, F);
+        double d = 0;
+        for (std::uint32_t v : sd.vertices) d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
+        return d;
+      };
+      if (gap(&relaxed) < gap(nullptr))
+        for (std::size_t i = 0; i < inner.size(); ++i) where[cd.vertices[inner[i]]] = relaxed[i];
     }
   }
   out.vertices = canonical.vertices;
@@ -313,10 +580,24 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     why = "mapping: " + why;
     return false;
   }
-  const TetQuality q = tet_quality(out.vertices, canonical.tets);
+  TetQuality q = tet_quality(out.vertices, canonical.tets);
+  if (q.inverted > 0) {
+    // The same volume threshold as tet_quality (builder::validate's rule), on the mapped mesh.
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t v = 0; v < V; ++v)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], out.vertices[3 * v + std::size_t(a)]);
+        hi[a] = std::max(hi[a], out.vertices[3 * v + std::size_t(a)]);
+      }
+    const double diag = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    untangle(canonical.tets, on_surface, 1e-12 * diag * diag * diag, out.vertices);
+    q = tet_quality(out.vertices, canonical.tets);
+  }
   if (stats) {
     stats->matched_points = corr.anchors.size();
     stats->patches = cp.size();
+    stats->rejected_paths = rejected_paths;
+    stats->dropped_anchors = dropped_anchors;
     stats->min_scaled_jacobian = q.min_scaled_jacobian;
     stats->inverted = q.inverted;
   }

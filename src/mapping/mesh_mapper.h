@@ -21,15 +21,24 @@ namespace cadinterp::mapping {
 struct MapStats {
   std::size_t matched_points = 0;
   std::size_t patches = 0;
+  std::size_t rejected_paths = 0;  ///< one-sided edges dropped by the cyclic-order check
+  std::size_t dropped_anchors = 0;  ///< matched points not at a mesh vertex on both sides
   double min_scaled_jacobian = 0;  ///< of the mapped canonical tets
   std::size_t inverted = 0;        ///< mapped tets inverted or flat (a failure when > 0)
+};
+
+/// Tuning of one mapping (defaults are the builder's).
+struct MapOptions {
+  /// Sweeps of the in-patch relaxation (mesh_mapper.cpp): 0 keeps the composed disk maps.
+  int relax_iterations = 30;
 };
 
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
 /// allow it (no common control points, a patch that is not a disk, patches without
 /// counterpart) or when the result would contain inverted tets. `stats` may be null.
 bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
-                builder::MappedSample& out, std::string& why, MapStats* stats = nullptr);
+                builder::MappedSample& out, std::string& why, MapStats* stats = nullptr,
+                const MapOptions& options = MapOptions());
 
 class MeshMapper final : public builder::Mapper {
  public:

@@ -1,6 +1,7 @@
 #include "mapping/patch_layout.h"
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -196,11 +197,41 @@ bool pair_patches(const std::vector<Patch>& source, const std::vector<Patch>& ca
   for (std::size_t i = 0; i < canonical.size(); ++i) {
     auto it = by_anchors.find(canonical[i].key());
     if (it == by_anchors.end()) {
+      // Name the nearest source patch (most anchors in common) and how the two differ: what
+      // a host's ID problem or a layout difference looks like.
+      std::vector<int> mine = canonical[i].key();
+      std::sort(mine.begin(), mine.end());
+      std::size_t best = 0, best_common = 0;
+      std::vector<int> only_c, only_s;
+      for (std::size_t j = 0; j < source.size(); ++j) {
+        std::vector<int> theirs = source[j].key(), common;
+        std::sort(theirs.begin(), theirs.end());
+        std::set_intersection(mine.begin(), mine.end(), theirs.begin(), theirs.end(),
+                              std::back_inserter(common));
+        if (common.size() > best_common || j == 0) {
+          best = j;
+          best_common = common.size();
+          only_c.clear();
+          only_s.clear();
+          std::set_difference(mine.begin(), mine.end(), theirs.begin(), theirs.end(),
+                              std::back_inserter(only_c));
+          std::set_difference(theirs.begin(), theirs.end(), mine.begin(), mine.end(),
+                              std::back_inserter(only_s));
+        }
+      }
       why = "canonical patch " + std::to_string(i) + " (" +
             std::to_string(canonical[i].triangles.size()) + " triangles, " +
             std::to_string(canonical[i].anchors.size()) +
             " anchors) has no source patch with the same matched control points in the same "
             "cyclic order";
+      if (!source.empty())
+        why += " (nearest: source patch " + std::to_string(best) + ", " +
+               std::to_string(source[best].anchors.size()) + " anchors, " +
+               std::to_string(best_common) + " in common; " + std::to_string(only_c.size()) +
+               " only in the canonical's, " + std::to_string(only_s.size()) +
+               " only in the source's" +
+               (only_c.empty() && only_s.empty() ? ": the same anchors in another order" : "") +
+               ")";
       return false;
     }
     source_of[i] = it->second;
