@@ -1,0 +1,563 @@
+// The OCCT host: options, evaluation (regenerate -> check -> mesh -> references), the FEM call,
+// the builder's C callbacks and the library entry (occt_host.h).
+#include "occt_host.h"
+
+#include <BRepCheck_Analyzer.hxx>
+#include <BRepGProp.hxx>
+#include <GProp_GProps.hxx>
+#include <Standard_Failure.hxx>
+#include <TopExp_Explorer.hxx>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <list>
+#include <memory>
+#include <map>
+#include <mutex>
+#include <new>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "occt_mesh.h"
+#include "occt_models.h"
+#include "occt_references.h"
+
+#ifdef CADINTERP_OCCT_HAVE_PHYSICS
+#include "physics.h"
+#endif
+
+namespace cadinterp::occt {
+
+using Clock = std::chrono::steady_clock;
+static double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+struct Model::Impl {
+  const ModelDef* def = nullptr;
+  MeshSettings mesh;
+  int order = 1, levels = 1;
+  Settings settings;
+  std::string identity;
+  std::vector<cadinterp_parameter_desc> params;  ///< the varied parameters
+  std::vector<std::size_t> varied;                 ///< their indices in the model's list
+  std::vector<double> held;                        ///< every parameter; held ones at the centre
+  cadinterp_host host{};
+
+  /// The model's full parameter vector from the host's x.
+  std::vector<double> full(const double* x) const {
+    std::vector<double> f = held;
+    for (std::size_t i = 0; i < varied.size(); ++i) f[varied[i]] = x[i];
+    return f;
+  }
+  mutable std::mutex lock;
+  mutable StageTimes times;
+
+  void count(const StageTimes& t) const {
+    std::lock_guard<std::mutex> g(lock);
+    times.regenerations += t.regenerations;
+    times.failures += t.failures;
+    times.regenerate += t.regenerate;
+    times.tessellate += t.tessellate;
+    times.tetgen += t.tetgen;
+    times.references += t.references;
+    times.physics += t.physics;
+  }
+};
+
+namespace {
+
+double parse_number(const std::string& key, const std::string& value, double lo, double hi) {
+  char* end = nullptr;
+  const double v = std::strtod(value.c_str(), &end);
+  if (value.empty() || end != value.c_str() + value.size() || !std::isfinite(v) || v < lo ||
+      v > hi) {
+    std::ostringstream s;
+    s << "occt host: option " << key << "='" << value << "' must be a number in [" << lo << ", "
+      << hi << "]";
+    throw std::invalid_argument(s.str());
+  }
+  return v;
+}
+
+std::string g(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
+cadinterp_status host_regenerate(void* user, const double* x, cadinterp_sample* out);
+cadinterp_status host_references(void* user, const double* x, cadinterp_sample* out);
+cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host_mesh* mesh,
+                               cadinterp_sample* out);
+
+}  // namespace
+
+Model::Model(const std::string& model, const std::string& options) : impl_(new Impl) {
+  const std::string name = model.empty() ? "wrench" : model;
+  impl_->def = find_model(name);
+  if (!impl_->def) {
+    std::string known;
+    for (const std::string& n : model_names()) known += (known.empty() ? "" : ", ") + n;
+    throw std::invalid_argument("occt host: unknown model '" + name + "' (models: " + known + ")");
+  }
+  Impl& m = *impl_;
+  m.mesh.mesh_size = m.def->default_mesh_size;
+  m.settings.force = m.def->default_force;
+  m.settings.heat_flux = 0.02;
+  std::stringstream ss(options);
+  std::string item, vary;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) continue;
+    const auto eq = item.find('=');
+    if (eq == std::string::npos)
+      throw std::invalid_argument("occt host: option '" + item + "' is not key=value");
+    const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
+    if (key == "mesh_size")
+      m.mesh.mesh_size = parse_number(key, value, 0.2, 200);
+    else if (key == "order")
+      m.order = static_cast<int>(parse_number(key, value, 1, 2));
+    else if (key == "levels")
+      m.levels = static_cast<int>(parse_number(key, value, 0, 4));
+    else if (key == "keep_surface")
+      m.mesh.keep_surface = parse_number(key, value, 0, 1) != 0;
+    else if (key == "force")
+      m.settings.force = parse_number(key, value, 1e-6, 1e9);
+    else if (key == "heat_flux")
+      m.settings.heat_flux = parse_number(key, value, 0, 1e3);
+    else if (key == "quality")
+      m.mesh.quality = parse_number(key, value, 1.05, 10);
+    else if (key == "angle")
+      m.mesh.angle = parse_number(key, value, 0.05, 1.5);
+    else if (key == "vary")
+      vary = value;
+    else
+      throw std::invalid_argument("occt host: unknown option '" + key +
+                                  "' (mesh_size, order, levels, keep_surface, quality, angle, force, heat_flux, vary)");
+    if ((key == "order" || key == "levels" || key == "keep_surface") &&
+        value.find_first_not_of("0123456789") != std::string::npos)
+      throw std::invalid_argument("occt host: option " + key + " must be an integer");
+  }
+  // vary=a+b: only these parameters are the host's; the others stay at the box's centre (a
+  // study of one effect, e.g. the load angle alone).
+  std::vector<std::string> names;
+  for (std::stringstream vs(vary); std::getline(vs, item, '+');)
+    if (!item.empty()) names.push_back(item);
+  for (std::size_t i = 0; i < m.def->parameters.size(); ++i) {
+    const ParameterDef& p = m.def->parameters[i];
+    m.held.push_back(0.5 * (p.lower + p.upper));
+    if (names.empty() || std::find(names.begin(), names.end(), p.name) != names.end())
+      m.varied.push_back(i);
+  }
+  for (const std::string& n : names) {
+    bool known = false;
+    for (const ParameterDef& p : m.def->parameters) known = known || p.name == n;
+    if (!known)
+      throw std::invalid_argument("occt host: vary names an unknown parameter '" + n + "' of " +
+                                  m.def->name);
+  }
+  m.identity = "occt " + m.def->name + " v" + std::to_string(m.def->version) +
+               " (mesh_size=" + g(m.mesh.mesh_size) + ", order=" + std::to_string(m.order) +
+               ", levels=" + std::to_string(m.levels) +
+               ", keep_surface=" + (m.mesh.keep_surface ? "1" : "0") +
+               ", quality=" + g(m.mesh.quality) + ", angle=" + g(m.mesh.angle) +
+               ", force=" + g(m.settings.force) +
+               (m.def->name == "hub" ? ", heat_flux=" + g(m.settings.heat_flux) : "") +
+               (names.empty() ? std::string() : ", vary=" + vary) + ")";
+  for (std::size_t i : m.varied) {
+    const ParameterDef& p = m.def->parameters[i];
+    m.params.push_back({p.name.c_str(), p.unit.c_str(), p.lower, p.upper});
+  }
+  m.host.struct_size = sizeof(cadinterp_host);
+  m.host.name = "occt";
+  m.host.identity = m.identity.c_str();
+  m.host.parameter_count = static_cast<int>(m.params.size());
+  m.host.parameters = m.params.data();
+  m.host.user = this;
+  m.host.regenerate = host_regenerate;
+  m.host.references = host_references;
+  m.host.simulate = has_physics() ? host_simulate : nullptr;
+  // OCCT's modelling algorithms and BRepMesh work on per-call shapes; TetGen is serialized
+  // inside mesh_shape, the FEM holds no global state.
+  m.host.thread_safe = 1;
+}
+
+Model::~Model() = default;
+
+const std::string& Model::name() const { return impl_->def->name; }
+const std::string& Model::identity() const { return impl_->identity; }
+int Model::parameter_count() const { return static_cast<int>(impl_->params.size()); }
+const cadinterp_parameter_desc* Model::parameters() const { return impl_->params.data(); }
+std::vector<double> Model::center() const {
+  std::vector<double> c;
+  for (const auto& p : impl_->params) c.push_back(0.5 * (p.lower + p.upper));
+  return c;
+}
+const cadinterp_host* Model::host() const { return &impl_->host; }
+bool Model::thermal() const { return impl_->def->name == "hub"; }
+
+bool Model::has_physics() {
+#ifdef CADINTERP_OCCT_HAVE_PHYSICS
+  return true;
+#else
+  return false;
+#endif
+}
+
+StageTimes Model::stage_times() const {
+  std::lock_guard<std::mutex> l(impl_->lock);
+  return impl_->times;
+}
+void Model::reset_stage_times() const {
+  std::lock_guard<std::mutex> l(impl_->lock);
+  impl_->times = StageTimes{};
+}
+
+namespace {
+
+// OCCT 7.6's fillet and blend code keeps static state: two regenerations running at once gave
+// an invalid solid now and then (seen in 2-thread builds of the wrench), so the modelling stage
+// runs one at a time. Tessellation, TetGen (itself serialized) and the FEM still overlap.
+std::mutex g_modelling_lock;
+
+// Regenerates the solid and checks it (the stage that can fail for geometric reasons).
+NamedShape regenerate_checked(const ModelDef& def, const double* x) {
+  std::lock_guard<std::mutex> lock(g_modelling_lock);
+  NamedShape s = def.build(x);
+  int solids = 0;
+  for (TopExp_Explorer ex(s.shape, TopAbs_SOLID); ex.More(); ex.Next()) ++solids;
+  if (solids != 1)
+    throw Infeasible("the features gave " + std::to_string(solids) + " solids instead of one");
+  BRepCheck_Analyzer check(s.shape);
+  if (!check.IsValid()) throw Infeasible("the regenerated solid is invalid (BRepCheck_Analyzer)");
+  return s;
+}
+
+double volume_of(const TopoDS_Shape& s) {
+  std::lock_guard<std::mutex> lock(g_modelling_lock);
+  GProp_GProps props;
+  BRepGProp::VolumeProperties(s, props);
+  return props.Mass();
+}
+
+std::string failure_text(const Standard_Failure& f) {
+  const char* msg = f.GetMessageString();
+  return std::string("OCCT ") + f.DynamicType()->Name() + (msg && *msg ? std::string(": ") + msg : "");
+}
+
+}  // namespace
+
+Evaluation Model::evaluate(const double* x) const {
+  const Impl& m = *impl_;
+  Evaluation e;
+  StageTimes t;
+  t.regenerations = 1;
+  for (int i = 0; i < parameter_count(); ++i) {
+    const auto& p = m.params[static_cast<std::size_t>(i)];
+    const double slack = 1e-9 * (p.upper - p.lower);
+    if (!std::isfinite(x[i]) || x[i] < p.lower - slack || x[i] > p.upper + slack) {
+      e.message = std::string("parameter ") + p.name + " = " + g(x[i]) + " is outside [" +
+                  g(p.lower) + ", " + g(p.upper) + "]";
+      t.failures = 1;
+      m.count(t);
+      return e;
+    }
+  }
+  const char* stage = "regenerate";
+  try {
+    auto t0 = Clock::now();
+    const NamedShape s = regenerate_checked(*m.def, m.full(x).data());
+    e.exact_volume = volume_of(s.shape);
+    t.regenerate = since(t0);
+
+    stage = "mesh";
+    MeshTimes mt;
+    TetMeshData mesh = mesh_shape(s, m.mesh, mt);
+    t.tessellate = mt.tessellate;
+    t.tetgen = mt.tetgen;
+    e.mesh_volume = mesh_volume(mesh);
+    e.vertices = std::move(mesh.vertices);
+    e.tets = std::move(mesh.tets);
+    e.triangles = std::move(mesh.triangles);
+    e.triangle_tags = std::move(mesh.triangle_tags);
+
+    stage = "references";
+    t0 = Clock::now();
+    add_references(s, m.levels, e.points, e.paths);
+    for (FaceNameMap::Iterator it(s.faces); it.More(); it.Next())
+      e.faces.emplace_back(face_tag(it.Value().label), it.Value().label);
+    std::sort(e.faces.begin(), e.faces.end());
+    for (const RegionDef& r : m.def->regions) {
+      Region region{r.name, r.kind, {}};
+      for (FaceNameMap::Iterator it(s.faces); it.More(); it.Next())
+        for (const std::string& root : it.Value().roots)
+          if (std::find(r.roots.begin(), r.roots.end(), root) != r.roots.end())
+            region.tags.push_back(face_tag(it.Value().label));
+      std::sort(region.tags.begin(), region.tags.end());
+      region.tags.erase(std::unique(region.tags.begin(), region.tags.end()), region.tags.end());
+      if (region.tags.empty())
+        throw Infeasible("region '" + r.name + "' lost all its faces");
+      e.regions.push_back(std::move(region));
+    }
+    t.references = since(t0);
+    e.ok = true;
+  } catch (const Infeasible& ex) {
+    e.message = ex.what();
+  } catch (const Standard_Failure& ex) {
+    e.message = std::string(stage) + ": " + failure_text(ex);
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& ex) {
+    e.message = std::string(stage) + ": " + ex.what();
+  }
+  if (!e.ok) {
+    e.vertices.clear();
+    e.tets.clear();
+    e.triangles.clear();
+    e.triangle_tags.clear();
+    e.points.clear();
+    e.paths.clear();
+    e.regions.clear();
+    t.failures = 1;
+  }
+  m.count(t);
+  return e;
+}
+
+double Model::exact_volume(const double* x) const {
+  try {
+    return volume_of(regenerate_checked(*impl_->def, impl_->full(x).data()).shape);
+  } catch (const Standard_Failure& ex) {
+    throw std::runtime_error(failure_text(ex));
+  }
+}
+
+Fields Model::simulate(const double* x, const Evaluation& e) const {
+#ifdef CADINTERP_OCCT_HAVE_PHYSICS
+  if (!e.ok) throw std::runtime_error("simulate: the evaluation failed: " + e.message);
+  const Impl& m = *impl_;
+  const auto t0 = Clock::now();
+  physics::Problem p;
+  p.mesh.vertices = e.vertices;
+  p.mesh.tets = e.tets;
+  p.mesh.triangles = e.triangles;
+  p.mesh.triangle_tags = e.triangle_tags;
+  p.order = m.order;
+  // Steel in mm, N, MPa, W, K: E 210 GPa, conductivity 50 W/(m K) = 0.05 W/(mm K).
+  p.material.youngs_modulus = 210e3;
+  p.material.poisson_ratio = 0.3;
+  p.material.conductivity = 0.05;
+  p.material.thermal_expansion = 12e-6;
+  const LoadCase c = m.def->loads(m.full(x).data(), m.settings);
+  p.material.reference_temperature = c.reference_temperature;
+  p.thermal = c.thermal;
+  auto tags = [&](const std::string& region) {
+    for (const Region& r : e.regions)
+      if (r.name == region) return r.tags;
+    throw std::runtime_error("simulate: no region '" + region + "'");
+  };
+  for (const auto& f : c.fixed) p.fixed.push_back({tags(f.region), {true, true, true}});
+  for (const auto& f : c.forces)
+    p.forces.push_back({tags(f.region), {f.force[0], f.force[1], f.force[2]}});
+  for (const auto& f : c.pressures) p.pressures.push_back({tags(f.region), f.pressure});
+  for (const auto& f : c.fluxes) p.heat_fluxes.push_back({tags(f.region), f.flux});
+  for (const auto& f : c.convections)
+    p.convections.push_back({tags(f.region), f.coefficient, f.ambient});
+  for (const auto& f : c.temperatures) p.temperatures.push_back({tags(f.region), f.temperature});
+  const physics::Solution s = physics::solve(p);
+  Fields out;
+  out.von_mises = s.von_mises;
+  out.displacement = s.displacement;
+  out.temperature = s.temperature;
+  StageTimes t;
+  t.physics = since(t0);
+  m.count(t);
+  return out;
+#else
+  (void)x;
+  (void)e;
+  throw std::runtime_error("simulate: this build has no FEM (examples/physics)");
+#endif
+}
+
+std::vector<std::string> model_names() {
+  std::vector<std::string> n;
+  for (const ModelDef& d : models()) n.push_back(d.name);
+  return n;
+}
+
+// ---- the C callbacks ------------------------------------------------------------------------
+
+namespace {
+
+// The builder calls regenerate, references and simulate for one x with one sample in turn: the
+// evaluation is kept between them, keyed by the sample (and checked against model and x; a miss
+// just evaluates again). No thread_local: a dlopen'd library's TLS outlives its unloading, and
+// LeakSanitizer reports it.
+struct Cached {
+  const Model* model = nullptr;
+  std::vector<double> x;
+  std::shared_ptr<const Evaluation> e;
+};
+std::mutex g_cache_lock;
+std::map<const cadinterp_sample*, Cached>& cache() {
+  static std::map<const cadinterp_sample*, Cached> c;
+  return c;
+}
+
+std::shared_ptr<const Evaluation> evaluation(const Model* m, const double* x,
+                                             const cadinterp_sample* sample, bool last) {
+  const std::vector<double> key(x, x + m->parameter_count());
+  {
+    std::lock_guard<std::mutex> l(g_cache_lock);
+    auto it = cache().find(sample);
+    if (it != cache().end() && it->second.model == m && it->second.x == key) {
+      std::shared_ptr<const Evaluation> e = it->second.e;
+      if (last) cache().erase(it);
+      return e;
+    }
+  }
+  auto e = std::make_shared<const Evaluation>(m->evaluate(x));
+  if (!last && e->ok) {
+    std::lock_guard<std::mutex> l(g_cache_lock);
+    // Entries of samples the builder dropped before the last callback: bounded.
+    if (cache().size() > 64) cache().clear();
+    cache()[sample] = Cached{m, key, e};
+  }
+  return e;
+}
+
+cadinterp_status fail(cadinterp_sample* out, const std::string& message) {
+  cadinterp_sample_set_message(out, message.c_str());
+  return CADINTERP_E_INFEASIBLE;
+}
+
+cadinterp_status host_regenerate(void* user, const double* x, cadinterp_sample* out) {
+  try {
+    const auto ep = evaluation(static_cast<const Model*>(user), x, out, false);
+    const Evaluation& e = *ep;
+    if (!e.ok) return fail(out, e.message);
+    return cadinterp_sample_set_mesh(out, e.vertices.data(), e.vertices.size() / 3,
+                                     e.tets.data(), e.tets.size() / 4, e.triangles.data(),
+                                     e.triangle_tags.data(), e.triangle_tags.size());
+  } catch (const std::bad_alloc&) {
+    return CADINTERP_E_OUT_OF_MEMORY;
+  } catch (const std::exception& ex) {
+    return fail(out, ex.what());
+  }
+}
+
+cadinterp_status host_references(void* user, const double* x, cadinterp_sample* out) {
+  try {
+    const Model* m = static_cast<const Model*>(user);
+    const auto ep = evaluation(m, x, out, m->host()->simulate == nullptr);
+    const Evaluation& e = *ep;
+    if (!e.ok) return fail(out, e.message);
+    for (const ControlPoint& p : e.points) {
+      const cadinterp_status s =
+          cadinterp_sample_add_point(out, p.id.data(), p.id.size(), p.position);
+      if (s != CADINTERP_OK) return s;
+    }
+    for (const Path& p : e.paths) {
+      const cadinterp_status s = cadinterp_sample_add_path(
+          out, p.a.data(), p.a.size(), p.b.data(), p.b.size(), p.polyline.data(),
+          p.polyline.size() / 3);
+      if (s != CADINTERP_OK) return s;
+    }
+    for (const Region& r : e.regions) {
+      const cadinterp_status s = cadinterp_sample_add_region(out, r.name.c_str(), r.kind.c_str(),
+                                                             r.tags.data(), r.tags.size());
+      if (s != CADINTERP_OK) return s;
+    }
+    return CADINTERP_OK;
+  } catch (const std::bad_alloc&) {
+    return CADINTERP_E_OUT_OF_MEMORY;
+  } catch (const std::exception& ex) {
+    return fail(out, ex.what());
+  }
+}
+
+cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host_mesh* mesh,
+                               cadinterp_sample* out) {
+  try {
+    const Model* m = static_cast<const Model*>(user);
+    // The mesh the builder hands back is the one regenerate wrote; use it as given.
+    Evaluation e = *evaluation(m, x, out, true);
+    if (!e.ok) return fail(out, e.message);
+    e.vertices.assign(mesh->vertices, mesh->vertices + 3 * mesh->vertex_count);
+    e.tets.assign(mesh->tets, mesh->tets + 4 * mesh->tet_count);
+    e.triangles.assign(mesh->triangles, mesh->triangles + 3 * mesh->triangle_count);
+    e.triangle_tags.assign(mesh->triangle_tags, mesh->triangle_tags + mesh->triangle_count);
+    const Fields f = m->simulate(x, e);
+    const std::size_t nv = mesh->vertex_count;
+    if (f.von_mises.size() != nv || f.displacement.size() != 3 * nv)
+      return fail(out, "simulate: the FEM returned fields of the wrong size");
+    cadinterp_status s = cadinterp_sample_add_field(out, "von_mises", CADINTERP_PER_VERTEX, 1,
+                                                    f.von_mises.data(), nv);
+    if (s == CADINTERP_OK)
+      s = cadinterp_sample_add_field(out, "displacement", CADINTERP_PER_VERTEX, 3,
+                                     f.displacement.data(), nv);
+    if (s == CADINTERP_OK && m->thermal()) {
+      if (f.temperature.size() != nv)
+        return fail(out, "simulate: the FEM returned no temperature field");
+      s = cadinterp_sample_add_field(out, "temperature", CADINTERP_PER_VERTEX, 1,
+                                     f.temperature.data(), nv);
+    }
+    return s;
+  } catch (const std::bad_alloc&) {
+    return CADINTERP_E_OUT_OF_MEMORY;
+  } catch (const std::exception& ex) {
+    return fail(out, std::string("simulate: ") + ex.what());
+  }
+}
+
+// Hosts handed out by the entry, alive until the library is unloaded (cadinterp_builder.h).
+std::mutex g_registry_lock;
+std::list<std::unique_ptr<Model>>& registry() {
+  static std::list<std::unique_ptr<Model>> r;
+  return r;
+}
+// Entry error messages, kept until unload (the entry's contract: library-owned storage).
+std::mutex g_error_lock;
+std::set<std::string>& errors() {
+  static std::set<std::string> e;
+  return e;
+}
+
+}  // namespace
+
+const Model* host_model(const cadinterp_host* host) {
+  if (!host || host->regenerate != host_regenerate) return nullptr;
+  std::lock_guard<std::mutex> l(g_registry_lock);
+  for (const auto& m : registry())
+    if (m.get() == host->user) return m.get();
+  return nullptr;
+}
+
+}  // namespace cadinterp::occt
+
+extern "C" const cadinterp_host* cadinterp_host_entry(const char* model, const char* options,
+                                                      const char** error) {
+  using cadinterp::occt::Model;
+  std::string message;
+  try {
+    auto m = std::make_unique<Model>(model ? model : "", options ? options : "");
+    std::lock_guard<std::mutex> l(cadinterp::occt::g_registry_lock);
+    for (const auto& r : cadinterp::occt::registry())
+      if (r->identity() == m->identity()) return r->host();
+    cadinterp::occt::registry().push_back(std::move(m));
+    return cadinterp::occt::registry().back()->host();
+  } catch (const std::exception& ex) {
+    message = ex.what();
+  } catch (...) {
+    message = "occt host: unexpected failure";
+  }
+  std::lock_guard<std::mutex> l(cadinterp::occt::g_error_lock);
+  const auto it = cadinterp::occt::errors().insert(message).first;
+  if (error) *error = it->c_str();
+  return nullptr;
+}
