@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
+#include <utility>
 
 namespace cadinterp::mapping {
 
@@ -106,6 +108,55 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
   std::vector<Id> keys;
   keys.reserve(m.paths.size());
   for (const builder::Path& p : m.paths) keys.push_back(path_edge_key(p));
+  // Seams: a common CAD edge with the same face on both sides (a periodic face's seam, e.g. a
+  // cylinder's: the OpenCASCADE host emits its paths like any edge's). Its mesh edges are the
+  // pairs of consecutive polyline nodes (paths run through mesh vertices, cadinterp_builder.h);
+  // cutting them opens an annulus into a disk the same way on both sides (§6.2).
+  std::vector<std::uint32_t> by_x(m.vertex_count());
+  for (std::size_t v = 0; v < by_x.size(); ++v) by_x[v] = static_cast<std::uint32_t>(v);
+  std::sort(by_x.begin(), by_x.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return m.vertices[3 * std::size_t(a)] < m.vertices[3 * std::size_t(b)];
+  });
+  auto vertex_near = [&](const double* p) -> std::int64_t {
+    auto it = std::lower_bound(by_x.begin(), by_x.end(), p[0] - tolerance,
+                               [&](std::uint32_t v, double x) {
+                                 return m.vertices[3 * std::size_t(v)] < x;
+                               });
+    for (; it != by_x.end() && m.vertices[3 * std::size_t(*it)] <= p[0] + tolerance; ++it) {
+      const double* q = &m.vertices[3 * std::size_t(*it)];
+      if (std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= tolerance) return *it;
+    }
+    return -1;
+  };
+  // Edges inside a face; a path is a seam only when every segment of it is one of them (a
+  // partial cut would leave a slit with a loop of its own).
+  using Edge = std::pair<std::uint32_t, std::uint32_t>;
+  std::set<Edge> inner;
+  for (int h = 0; h < H; ++h) {
+    const int t = s.twin[static_cast<std::size_t>(h)];
+    if (t >= 0 && m.triangle_tags[static_cast<std::size_t>(h / 3)] ==
+                      m.triangle_tags[static_cast<std::size_t>(t / 3)])
+      inner.emplace(std::min(s.from(h), s.to(h)), std::max(s.from(h), s.to(h)));
+  }
+  std::set<Edge> seam;
+  for (std::size_t q = 0; q < m.paths.size() && !inner.empty(); ++q) {
+    if (!common_edges.count(keys[q])) continue;
+    const std::vector<double>& pl = m.paths[q].polyline;
+    std::vector<Edge> mine;
+    bool whole = pl.size() >= 6;
+    std::int64_t prev = -1;
+    for (std::size_t i = 0; i + 2 < pl.size() && whole; i += 3) {
+      const std::int64_t v = vertex_near(&pl[i]);
+      if (i > 0) {
+        const Edge e{static_cast<std::uint32_t>(std::min(v, prev)),
+                     static_cast<std::uint32_t>(std::max(v, prev))};
+        whole = v >= 0 && prev >= 0 && v != prev && inner.count(e);
+        mine.push_back(e);
+      }
+      prev = v;
+    }
+    if (whole) seam.insert(mine.begin(), mine.end());
+  }
   for (int h = 0; h < H; ++h) {
     const int t = s.twin[static_cast<std::size_t>(h)];
     if (t < 0) {
@@ -113,8 +164,12 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
       continue;
     }
     if (m.triangle_tags[static_cast<std::size_t>(h / 3)] ==
-        m.triangle_tags[static_cast<std::size_t>(t / 3)])
+        m.triangle_tags[static_cast<std::size_t>(t / 3)]) {
+      const std::uint32_t a = s.from(h), b = s.to(h);
+      if (!seam.empty() && seam.count({std::min(a, b), std::max(a, b)}))
+        cut[static_cast<std::size_t>(h)] = 1;
       continue;
+    }
     if (t < h) {  // decided once per edge, from its first half-edge
       cut[static_cast<std::size_t>(h)] = cut[static_cast<std::size_t>(t)];
       continue;

@@ -42,7 +42,8 @@ Id path_edge_key(const builder::Path& p);
 /// Per half-edge of `s`: 1 where the common patch layout cuts the surface. A half-edge between
 /// triangles of different face tags is cut unless it lies (within `tolerance`) on a path whose
 /// edge key is not common: a CAD edge that exists in one sample only. Half-edges inside a face
-/// are never cut.
+/// are cut only along a common path there (a periodic face's seam: build_patches then opens
+/// the face along it).
 std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges, double tolerance);
 
 /// Distance from p to segment [a, b], and the fraction t along it of the closest point.

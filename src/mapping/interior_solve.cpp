@@ -35,13 +35,23 @@ double hat_gradients(const double* p[4], double g[4][3]) {
 
 bool harmonic_interior(const std::vector<double>& vertices, const std::vector<std::uint32_t>& tets,
                        const std::vector<char>& fixed, std::vector<double>& mapped,
-                       std::string& why) {
+                       std::string& why, double stiffening) {
   const std::size_t V = vertices.size() / 3, T = tets.size() / 4;
   std::vector<int> unknown(V, -1);
   int m = 0;
   for (std::size_t v = 0; v < V; ++v)
     if (!fixed[v]) unknown[v] = m++;
   if (m == 0) return true;
+  double mean_volume = 0;
+  if (stiffening > 0) {
+    for (std::size_t t = 0; t < T; ++t) {
+      const double* p[4];
+      for (int i = 0; i < 4; ++i) p[i] = &vertices[3 * std::size_t(tets[4 * t + std::size_t(i)])];
+      double g[4][3];
+      mean_volume += std::fabs(hat_gradients(p, g));
+    }
+    mean_volume /= double(T);
+  }
   std::vector<Eigen::Triplet<double>> trip;
   trip.reserve(16 * T);
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(m, 3);
@@ -53,7 +63,8 @@ bool harmonic_interior(const std::vector<double>& vertices, const std::vector<st
     const double det = hat_gradients(p, g);
     if (det == 0) continue;
     // Stiffness K_ij = V grad(phi_i).grad(phi_j) = (g_i.g_j) / (36 V) with g = 6V grad phi.
-    const double scale = 1.0 / (6.0 * std::fabs(det));
+    double scale = 1.0 / (6.0 * std::fabs(det));
+    if (stiffening > 0) scale *= std::pow(mean_volume / std::fabs(det), stiffening);
     for (int i = 0; i < 4; ++i) {
       const int ui = unknown[q[i]];
       if (ui < 0) continue;
@@ -110,6 +121,28 @@ bool harmonic_interior(const std::vector<double>& vertices, const std::vector<st
       mapped[3 * v + std::size_t(a)] = x;
     }
   }
+  return true;
+}
+
+bool incremental_interior(const std::vector<double>& vertices,
+                          const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
+                          std::vector<double>& mapped, std::string& why, int steps,
+                          double stiffening) {
+  if (steps <= 1) return harmonic_interior(vertices, tets, fixed, mapped, why, stiffening);
+  const std::size_t V = vertices.size() / 3;
+  std::vector<double> current = vertices, next = vertices;
+  for (int s = 1; s <= steps; ++s) {
+    const double f = double(s) / double(steps);
+    for (std::size_t v = 0; v < V; ++v)
+      if (fixed[v])
+        for (std::size_t a = 0; a < 3; ++a)
+          next[3 * v + a] = s == steps ? mapped[3 * v + a]  // exactly the boundary data
+                                       : vertices[3 * v + a] +
+                                             f * (mapped[3 * v + a] - vertices[3 * v + a]);
+    if (!harmonic_interior(current, tets, fixed, next, why, stiffening)) return false;
+    current = next;
+  }
+  mapped = std::move(current);
   return true;
 }
 

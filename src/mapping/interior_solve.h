@@ -14,9 +14,21 @@ namespace cadinterp::mapping {
 /// `vertices` (#V by 3) and `tets` (#T by 4) of the canonical mesh; `fixed[v]` marks boundary
 /// vertices whose mapped position is already in `mapped` (#V by 3). Writes the interior rows of
 /// `mapped`. Fails when the solve fails.
+/// `stiffening` > 0 scales each tet's stiffness by (mean |V| / |V|)^stiffening: small tets
+/// stiffer, so they move rigidly and the large ones absorb the deformation (the Jacobian-based
+/// stiffening of mesh-motion solvers, Tezduyar et al.); 0 is the plain P1 Laplacian.
 bool harmonic_interior(const std::vector<double>& vertices, const std::vector<std::uint32_t>& tets,
                        const std::vector<char>& fixed, std::vector<double>& mapped,
-                       std::string& why);
+                       std::string& why, double stiffening = 0.0);
+
+/// The same in `steps` increments (pseudo-elastic / incremental mesh motion): the boundary moves
+/// by 1/steps of its displacement per step, and each step's stiffness is the current (already
+/// moved) mesh's, so the solve sees the deformation accumulated so far. steps = 1 is
+/// harmonic_interior.
+bool incremental_interior(const std::vector<double>& vertices,
+                          const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
+                          std::vector<double>& mapped, std::string& why, int steps,
+                          double stiffening = 0.0);
 
 struct TetQuality {
   double min_scaled_jacobian = 1.0;  ///< 1 for a regular tet, <= 0 inverted or flat

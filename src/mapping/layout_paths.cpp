@@ -86,7 +86,8 @@ int vertex_at(const Surface& s, const double* p, double tolerance) {
 
 std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
                                          std::uint32_t a, std::uint32_t b,
-                                         const std::vector<int>* patch_of, int patch) {
+                                         const std::vector<int>* patch_of, int patch,
+                                         const std::vector<char>* touch_except) {
   const std::size_t V = s.sample->vertex_count();
   const int H = 3 * s.triangles();
   std::vector<char> blocked(V, 0);
@@ -107,12 +108,16 @@ std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<cha
     queue.pop();
     if (d > dist[v]) continue;
     if (v == b) break;
-    if (v != a && blocked[v]) continue;
+    if (v != a && blocked[v] && !touch_except) continue;
     for (int h : out_edges[v]) {
       if (cuts[static_cast<std::size_t>(h)]) continue;
       const std::uint32_t w = s.to(h);
-      if (blocked[w] && w != b) continue;
-      const double nd = d + distance(s.position(v), s.position(w));
+      double cost = distance(s.position(v), s.position(w));
+      if (blocked[w] && w != b) {
+        if (!touch_except || (*touch_except)[w]) continue;
+        cost *= 10;
+      }
+      const double nd = d + cost;
       if (nd < dist[w]) {
         dist[w] = nd;
         prev[w] = v;

@@ -36,10 +36,14 @@ int vertex_at(const Surface& s, const double* p, double tolerance);
 /// Dijkstra along surface edges from a to b, whose inner vertices avoid every vertex that a cut
 /// half-edge touches; with `patch_of`, only along edges of triangles of patch `patch`. The vertex
 /// chain a..b, or empty when there is none.
+/// With `touch_except` (per surface vertex: nonzero where the path may never pass, e.g. the
+/// anchors), inner vertices may lie on cuts elsewhere, at a cost of 10x the edge length: a
+/// path may then touch a loop (the patch is cut open there, patch_layout.h) but not cross it.
 std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
                                          std::uint32_t a, std::uint32_t b,
                                          const std::vector<int>* patch_of = nullptr,
-                                         int patch = -1);
+                                         int patch = -1,
+                                         const std::vector<char>* touch_except = nullptr);
 
 /// One side of the cyclic-order check: the surface, its cuts before and after adding a layout
 /// path, the path's end vertex, and per surface vertex its anchor index (-1 for none).

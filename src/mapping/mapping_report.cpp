@@ -107,7 +107,16 @@ int pairs(const std::vector<std::string>& args) {
   p.option("host-options", 0, "STRING", "the model's options for --host", &host_options);
   p.option("relax", 0, "N", "sweeps of the in-patch relaxation (0: none)", &mo.relax_iterations, 0,
            100000);
+  int stiffen = 0;
+  p.option("interior-steps", 0, "N", "boundary increments of the interior solve",
+           &mo.interior_steps, 1, 1000);
+  p.option("stiffen", 0, "E", "stiffness x (mean tet volume / volume)^E in the interior solve",
+           &stiffen, 0, 4);
+  p.option("fallback-steps", 0, "N",
+           "increments of the second interior solve where tets stay inverted (0: none)",
+           &mo.fallback_steps, 0, 1000);
   if (!p.parse(args)) return 0;
+  mo.stiffening = stiffen;
   for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;
 
   // Field truth in closed form exists for the analytic host only; another host's fields are

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <thread>
 #include <tuple>
@@ -20,6 +21,8 @@
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
 #include "mapping/neighbour_transfer.h"
+#include "mapping/patch_layout.h"
+#include "mapping/surface.h"
 
 namespace {
 
@@ -265,9 +268,14 @@ TEST(MeshMapper, RefusesWithoutCommonControlPoints) {
 TEST(MeshMapper, RefusesPatchesThatAreNotDisks) {
   const Model plate("plate", "edge=5");
   builder::Sample a = plate.at({48, 21, 4});
-  const builder::Sample b = plate.at({95, 55, 9});
-  // One face tag everywhere: the whole closed surface is one patch (a sphere).
-  std::fill(a.triangle_tags.begin(), a.triangle_tags.end(), 1);
+  builder::Sample b = plate.at({95, 55, 9});
+  // One face tag everywhere and no paths on both sides (a path inside a face is a seam and cut
+  // like a border; one side's paths would be traced on the other): the whole closed surface is
+  // one patch (a sphere).
+  for (builder::Sample* x : {&a, &b}) {
+    std::fill(x->triangle_tags.begin(), x->triangle_tags.end(), 1);
+    x->paths.clear();
+  }
   builder::MappedSample m;
   std::string why;
   EXPECT_FALSE(mapping::map_sample(a, b, m, why));
@@ -419,3 +427,295 @@ TEST(MeshMapper, ScaledJacobianOfARegularTetIsOne) {
 }
 
 }  // namespace
+
+// A thick-walled tube, tet-meshed here: the analytic stand-in for a B-rep cylinder face with a
+// seam (what the OpenCASCADE host emits: its lateral faces bounded by two closed circle edges
+// and crossed by a seam edge whose paths have the same face on both sides). Control points and
+// paths follow cadinterp_builder.h's ID scheme with one subdivision level.
+namespace tube {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Shape {
+  double r_in, r_out, height;
+  int n, k;  // angular and axial segments (multiples of 4: the edge points are mesh vertices)
+};
+
+builder::Sample make(const Shape& t) {
+  builder::Sample s;
+  s.feasible = true;
+  const int R = 3;  // radial nodes: one interior layer
+  auto index = [&](int i, int j, int k) {
+    return static_cast<std::uint32_t>((k * t.n + (j % t.n)) * R + i);
+  };
+  for (int k = 0; k <= t.k; ++k)
+    for (int j = 0; j < t.n; ++j)
+      for (int i = 0; i < R; ++i) {
+        const double r = t.r_in + (t.r_out - t.r_in) * i / (R - 1), a = 2 * kPi * j / t.n;
+        s.vertices.insert(s.vertices.end(), {r * std::cos(a), r * std::sin(a), t.height * k / t.k});
+      }
+  auto six_vol = [&](const std::uint32_t* q) {
+    const double* p[4];
+    for (int c = 0; c < 4; ++c) p[c] = &s.vertices[3 * std::size_t(q[c])];
+    double e[3][3];
+    for (int c = 0; c < 3; ++c)
+      for (int d = 0; d < 3; ++d) e[c][d] = p[c + 1][d] - p[0][d];
+    return e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+           e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+           e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+  };
+  // Kuhn's six tets per hex cell (the same diagonal everywhere: conforming).
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < t.k; ++k)
+    for (int j = 0; j < t.n; ++j)
+      for (int i = 0; i + 1 < R; ++i)
+        for (const auto& p : perms) {
+          int c[3] = {0, 0, 0};
+          std::uint32_t q[4];
+          q[0] = index(i, j, k);
+          for (int s3 = 0; s3 < 3; ++s3) {
+            c[p[s3]] = 1;
+            q[s3 + 1] = index(i + c[0], j + c[1], k + c[2]);
+          }
+          if (six_vol(q) < 0) std::swap(q[2], q[3]);
+          s.tets.insert(s.tets.end(), q, q + 4);
+        }
+  // Boundary: faces used by one tet, outward (tet faces (a,c,b), (a,b,d), (a,d,c), (b,c,d)).
+  std::map<std::vector<std::uint32_t>, std::pair<int, std::vector<std::uint32_t>>> faces;
+  for (std::size_t q = 0; q < s.tets.size(); q += 4) {
+    const std::uint32_t a = s.tets[q], b = s.tets[q + 1], c = s.tets[q + 2], d = s.tets[q + 3];
+    for (const std::vector<std::uint32_t>& f :
+         {std::vector<std::uint32_t>{a, c, b}, {a, b, d}, {a, d, c}, {b, c, d}}) {
+      std::vector<std::uint32_t> key = f;
+      std::sort(key.begin(), key.end());
+      auto& e = faces[key];
+      ++e.first;
+      e.second = f;
+    }
+  }
+  for (const auto& [key, e] : faces) {
+    if (e.first != 1) continue;
+    s.triangles.insert(s.triangles.end(), e.second.begin(), e.second.end());
+    int tag;  // 1 outer wall, 2 inner wall, 3 top, 4 bottom
+    auto radial = [&](std::uint32_t v) { return static_cast<int>(v % R); };
+    auto axial = [&](std::uint32_t v) { return static_cast<int>(v / (R * t.n)); };
+    if (radial(key[0]) == R - 1 && radial(key[1]) == R - 1 && radial(key[2]) == R - 1)
+      tag = 1;
+    else if (radial(key[0]) == 0 && radial(key[1]) == 0 && radial(key[2]) == 0)
+      tag = 2;
+    else
+      tag = axial(key[0]) == t.k ? 3 : 4;
+    s.triangle_tags.push_back(tag);
+  }
+  // References: vertices OB, OT, IB, IT at angle 0; circles and seams with levels = 1.
+  struct Vx {
+    std::int64_t id;
+    int i, k;
+  };
+  const Vx vx[4] = {{10, R - 1, 0}, {11, R - 1, t.k}, {12, 0, 0}, {13, 0, t.k}};
+  struct Ed {
+    std::int64_t id;
+    int v0, v1;  // indices into vx; a circle has v0 == v1
+  };
+  const Ed ed[6] = {{20, 0, 0}, {21, 1, 1}, {22, 2, 2}, {23, 3, 3}, {24, 0, 1}, {25, 2, 3}};
+  std::vector<std::vector<std::int64_t>> vid(4);
+  for (int v = 0; v < 4; ++v) {
+    vid[std::size_t(v)].push_back(0);
+    vid[std::size_t(v)].push_back(vx[v].id);
+    for (const Ed& e : ed)
+      if (e.v0 == v || e.v1 == v) vid[std::size_t(v)].push_back(e.id);
+    // Copy-constructed IDs (GCC 12's -Wnonnull misfires on vector<long> assignment here).
+    builder::ControlPoint cp{vid[std::size_t(v)], {0, 0, 0}};
+    const double* x = &s.vertices[3 * std::size_t(index(vx[v].i, 0, vx[v].k))];
+    std::copy(x, x + 3, cp.position);
+    s.points.push_back(cp);
+  }
+  for (const Ed& e : ed) {
+    const bool circle = e.v0 == e.v1;
+    const int steps = circle ? t.n : t.k;  // mesh edges along the CAD edge
+    auto node = [&](int m) {               // m = 0..steps along the edge
+      return circle ? index(vx[e.v0].i, m, vx[e.v0].k) : index(vx[e.v0].i, 0, m);
+    };
+    const std::vector<std::int64_t> base{1, e.id, std::min(vx[e.v0].id, vx[e.v1].id),
+                                         std::max(vx[e.v0].id, vx[e.v1].id), -1};
+    std::vector<std::vector<std::int64_t>> ids{vid[std::size_t(e.v0)], base, base, base,
+                                               vid[std::size_t(e.v1)]};
+    ids[1].push_back(0);  // u = 1/4
+    ids[3].push_back(1);  // u = 3/4
+    for (int q = 1; q <= 3; ++q) {
+      builder::ControlPoint cp{ids[std::size_t(q)], {0, 0, 0}};
+      const double* x = &s.vertices[3 * std::size_t(node(q * steps / 4))];
+      std::copy(x, x + 3, cp.position);
+      s.points.push_back(cp);
+    }
+    for (int q = 0; q < 4; ++q) {
+      builder::Path p{ids[std::size_t(q)], ids[std::size_t(q + 1)], {}};
+      for (int m = q * steps / 4; m <= (q + 1) * steps / 4; ++m) {
+        const double* x = &s.vertices[3 * std::size_t(node(m))];
+        p.polyline.insert(p.polyline.end(), x, x + 3);
+      }
+      s.paths.push_back(std::move(p));
+    }
+  }
+  return s;
+}
+
+}  // namespace tube
+
+// Fix 1 of the OpenCASCADE round: the seam of a periodic face. The tube's walls are annuli
+// whose only anchors on the two circles are the seam's ends and the circles' edge points; the
+// seam path (same face on both sides) must cut each wall open into a disk, its vertices
+// duplicated in the patch's local numbering, on both sides alike. Truth: the tube's geometry
+// (mapped wall vertices on the source's walls: radius between the source polygon's apothem and
+// its radius, z within the height; cap vertices at z = 0 or the height).
+TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
+  const tube::Shape src_shape{1.0, 2.0, 3.0, 16, 8}, can_shape{1.3, 2.4, 2.2, 24, 12};
+  const builder::Sample source = tube::make(src_shape), canonical = tube::make(can_shape);
+  ASSERT_EQ(builder::validate(source), "");
+  ASSERT_EQ(builder::validate(canonical), "");
+
+  // The layout: the outer wall (tag 1) is one disk patch cut open along its seam.
+  mapping::Surface surf;
+  std::string why;
+  ASSERT_TRUE(mapping::build_surface(source, surf, why)) << why;
+  const mapping::Correspondence corr = mapping::correspond(source, source);
+  const std::vector<char> cuts =
+      mapping::layout_cuts(surf, corr.common_edges, 1e-9 * source.bbox_diagonal());
+  std::vector<const double*> anchors;
+  for (const mapping::Anchor& a : corr.anchors) anchors.push_back(a.source);
+  std::vector<mapping::Patch> patches;
+  ASSERT_TRUE(mapping::build_patches(surf, cuts, anchors, 1e-9 * source.bbox_diagonal(), true,
+                                     patches, why))
+      << why;
+  ASSERT_EQ(patches.size(), 4u);
+  for (const mapping::Patch& p : patches) {
+    // The caps are plain annuli (two loops, no seam: the mapper splits them by paths).
+    if (source.triangle_tags[std::size_t(p.triangles[0])] != 1) {
+      EXPECT_EQ(p.holes.size(), source.triangle_tags[std::size_t(p.triangles[0])] >= 3 ? 1u : 0u);
+      continue;
+    }
+    // 16 x 9 wall vertices, the 9 on the seam twice; the loop: both circles and the seam twice.
+    EXPECT_EQ(p.local_vertices.size(), 16u * 9u + 9u);
+    EXPECT_EQ(p.loop.size(), 2u * 16u + 2u * 8u);
+    EXPECT_TRUE(p.holes.empty());
+  }
+
+  builder::MappedSample m;
+  mapping::MapStats stats;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+  EXPECT_EQ(stats.patches, 6u);  // two walls, two caps split in two each
+  EXPECT_EQ(stats.inverted, 0u);
+  const double apothem = std::cos(tube::kPi / src_shape.n), tol = 1e-9;
+  std::vector<int> tag_of(canonical.vertex_count(), 0);
+  for (std::size_t f = 0; f < canonical.triangle_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      int& t = tag_of[canonical.triangles[3 * f + std::size_t(c)]];
+      t = t == 0 || t == canonical.triangle_tags[f] ? canonical.triangle_tags[f] : -1;
+    }
+  std::size_t checked = 0;
+  for (std::size_t v = 0; v < canonical.vertex_count(); ++v) {
+    const double* x = &m.vertices[3 * v];
+    const double r = std::hypot(x[0], x[1]);
+    switch (tag_of[v]) {
+      case 1:
+      case 2: {
+        const double wall = tag_of[v] == 1 ? src_shape.r_out : src_shape.r_in;
+        EXPECT_GE(r, wall * apothem - tol) << v;
+        EXPECT_LE(r, wall + tol) << v;
+        EXPECT_GT(x[2], -tol);
+        EXPECT_LT(x[2], src_shape.height + tol);
+        ++checked;
+        break;
+      }
+      case 3:
+      case 4:
+        EXPECT_NEAR(x[2], tag_of[v] == 3 ? src_shape.height : 0.0, tol) << v;
+        EXPECT_GE(r, src_shape.r_in * apothem - tol);
+        EXPECT_LE(r, src_shape.r_out + tol);
+        ++checked;
+        break;
+      default:
+        break;
+    }
+  }
+  EXPECT_GT(checked, 2u * 24u * 11u);
+  // The seam is not where the wall folds: the mapped outer wall covers the whole turn (every
+  // 30-degree sector of the source wall gets canonical vertices).
+  std::vector<int> sector(12, 0);
+  for (std::size_t v = 0; v < canonical.vertex_count(); ++v)
+    if (tag_of[v] == 1) {
+      const double a = std::atan2(m.vertices[3 * v + 1], m.vertices[3 * v]) + tube::kPi;
+      ++sector[std::min<std::size_t>(11, static_cast<std::size_t>(a / (tube::kPi / 6)))];
+    }
+  for (int c : sector) EXPECT_GT(c, 0);
+}
+
+// Fix 2 of the OpenCASCADE round: the interior solve in boundary increments, with the
+// current mesh's stiffness, and with small tets stiffened (MapOptions). Truth: the P1
+// Laplacian reproduces an affine boundary map exactly, in one step or many (each step's
+// boundary data is affine in the current mesh), on a graded Kuhn-split box whose tets differ
+// in volume; the stiffened solve keeps the boundary data and a valid mesh.
+TEST(InteriorSolve, IncrementalSolveReproducesAffineMapsExactly) {
+  const int n = 6;
+  std::vector<double> x;
+  std::vector<std::uint32_t> tets;
+  auto index = [&](int i, int j, int k) { return std::uint32_t((k * (n + 1) + j) * (n + 1) + i); };
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i)
+        // Graded along x and z: the tets' volumes differ, so stiffening weights them unequally.
+        x.insert(x.end(), {-1.0 + 2.0 * std::pow(double(i) / n, 1.7), -1.0 + 2.0 * j / n,
+                           2.0 * std::pow(double(k) / n, 1.4)});
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        for (const auto& p : perms) {
+          int c[3] = {0, 0, 0};
+          std::uint32_t q[4];
+          q[0] = index(i, j, k);
+          for (int s = 0; s < 3; ++s) {
+            c[p[s]] = 1;
+            q[s + 1] = index(i + c[0], j + c[1], k + c[2]);
+          }
+          tets.insert(tets.end(), q, q + 4);
+        }
+  // Orientation: positive volumes.
+  for (std::size_t t = 0; t < tets.size(); t += 4) {
+    std::vector<std::uint32_t> one(tets.begin() + long(t), tets.begin() + long(t) + 4);
+    if (mapping::tet_quality(x, one).inverted) std::swap(tets[t + 2], tets[t + 3]);
+  }
+  ASSERT_EQ(mapping::tet_quality(x, tets).inverted, 0u);
+  std::vector<char> fixed(x.size() / 3, 0);
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i)
+        fixed[index(i, j, k)] = i == 0 || j == 0 || k == 0 || i == n || j == n || k == n;
+  std::string why;
+  // Stiffened (weighted) Laplacians do not reproduce affine maps (the weights break the
+  // partition of unity of the gradients); of them, only validity is asserted.
+  for (const auto& [steps, stiff] : {std::make_pair(1, 0.0), std::make_pair(5, 0.0),
+                                     std::make_pair(1, 2.0), std::make_pair(4, 1.0)}) {
+    std::vector<double> y(x.size());
+    for (std::size_t v = 0; v < x.size() / 3; ++v) {
+      const double* p = &x[3 * v];
+      y[3 * v] = 1.3 * p[0] + 0.4 * p[1] + 0.1;
+      y[3 * v + 1] = -0.2 * p[0] + 0.9 * p[1] + 0.3 * p[2];
+      y[3 * v + 2] = 0.5 * p[2] + 0.2 * p[0] - 2.0;
+    }
+    std::vector<double> mapped = y;
+    for (std::size_t v = 0; v < fixed.size(); ++v)
+      if (!fixed[v]) mapped[3 * v] = mapped[3 * v + 1] = mapped[3 * v + 2] = 0;
+    ASSERT_TRUE(mapping::incremental_interior(x, tets, fixed, mapped, why, steps, stiff)) << why;
+    if (stiff > 0) {
+      EXPECT_EQ(mapping::tet_quality(mapped, tets).inverted, 0u);
+      for (std::size_t v = 0; v < fixed.size(); ++v)
+        if (fixed[v]) {
+          ASSERT_EQ(mapped[3 * v], y[3 * v]);
+        }
+      continue;
+    }
+    for (std::size_t i = 0; i < y.size(); ++i) ASSERT_NEAR(mapped[i], y[i], 1e-9) << steps;
+  }
+}
+

@@ -11,22 +11,22 @@ namespace cadinterp::mapping {
 bool mean_value_parametrize(const Surface& s, const Patch& patch,
                             const std::vector<double>& loop_uv, DiskMap& out, std::string& why) {
   out = DiskMap{};
-  for (int f : patch.triangles)
-    for (int k = 0; k < 3; ++k) out.vertices.push_back(s.from(3 * f + k));
-  std::sort(out.vertices.begin(), out.vertices.end());
-  out.vertices.erase(std::unique(out.vertices.begin(), out.vertices.end()), out.vertices.end());
+  // The patch's local numbering: cut open along its seams, so a periodic face is a disk.
+  out.vertices = patch.local_vertices;
+  out.triangles = patch.corner_local;
   const int n = static_cast<int>(out.vertices.size());
-  out.local.reserve(out.vertices.size());
-  for (int i = 0; i < n; ++i) out.local.emplace(out.vertices[static_cast<std::size_t>(i)], i);
-  for (int f : patch.triangles)
-    for (int k = 0; k < 3; ++k) out.triangles.push_back(out.local.at(s.from(3 * f + k)));
+  if (out.triangles.size() != 3 * patch.triangles.size() ||
+      patch.loop_local.size() != patch.loop.size()) {
+    why = "mean-value parametrization: the patch has no local numbering (build_patches)";
+    return false;
+  }
   out.uv.assign(2 * std::size_t(n), 0.0);
 
-  // Unknowns: the interior vertices, numbered in increasing surface-vertex order.
+  // Unknowns: the interior vertices, numbered in local order.
   std::vector<int> unknown(static_cast<std::size_t>(n), -1);
   std::vector<char> fixed(static_cast<std::size_t>(n), 0);
   for (std::size_t i = 0; i < patch.loop.size(); ++i) {
-    const int l = out.local.at(patch.loop[i]);
+    const int l = patch.loop_local[i];
     fixed[static_cast<std::size_t>(l)] = 1;
     out.uv[2 * std::size_t(l)] = loop_uv[2 * i];
     out.uv[2 * std::size_t(l) + 1] = loop_uv[2 * i + 1];

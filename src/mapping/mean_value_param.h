@@ -15,8 +15,8 @@
 namespace cadinterp::mapping {
 
 struct DiskMap {
-  std::vector<std::uint32_t> vertices;           ///< surface vertices of the patch, increasing
-  std::unordered_map<std::uint32_t, int> local;  ///< surface vertex -> index in `vertices`
+  std::vector<std::uint32_t> vertices;  ///< per local vertex (Patch::local_vertices) its surface
+                                        ///< vertex: a seam's vertices occur twice
   std::vector<double> uv;                        ///< per local vertex, 2 values
   std::vector<int> triangles;                    ///< local indices, 3 per patch triangle
 };

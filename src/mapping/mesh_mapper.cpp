@@ -401,6 +401,12 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   // Patches with holes (a face with a hole, faces merged around one) are subdivided: two
   // shortest paths from the first loop to a hole, between the same anchors on both sides,
   // split such a patch into two disks; repeated until every patch is a disk.
+  // Surface vertices of the anchors: what a hole-splitting path may never pass through.
+  std::vector<int> src_anchor_of_all, can_anchor_of_all;
+  for (const Anchor& a : corr.anchors) {
+    src_anchor_of_all.push_back(vertex_at(ss, a.source, src_tol));
+    can_anchor_of_all.push_back(vertex_at(cs, a.canonical, can_tol));
+  }
   std::vector<Patch> sp, cp;
   for (int round = 0;; ++round) {
     if (!build_patches(ss, src_cuts, src_anchor, src_tol, true, sp, why)) {
@@ -427,46 +433,119 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             ")";
       return false;
     }
-    // Anchors: the first loop's first and middle ones; on the hole, the one nearest (on the
-    // canonical side, then by index) to the first, and the one half-way round from it.
-    const int a1 = c.anchors[0], a2 = c.anchors[c.anchors.size() / 2];
-    std::size_t nearest = 0;
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0; k < hole.anchors.size(); ++k) {
-      const double* p = corr.anchors[static_cast<std::size_t>(hole.anchors[k])].canonical;
-      const double* q = corr.anchors[static_cast<std::size_t>(a1)].canonical;
-      const double d = std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-      if (d < best) {
-        best = d;
-        nearest = k;
-      }
-    }
-    const int b1 = hole.anchors[nearest];
-    const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
-    for (int side = 0; side < 2; ++side) {
-      const Surface& surf = side == 0 ? ss : cs;
-      std::vector<char>& cuts = side == 0 ? src_cuts : can_cuts;
-      const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
-      const int patch = static_cast<int>(side == 0 ? sidx : holed);
-      const double tol = side == 0 ? src_tol : can_tol;
-      for (const auto& [x, y] : {std::make_pair(a1, b1), std::make_pair(a2, b2)}) {
-        const Anchor& ax = corr.anchors[static_cast<std::size_t>(x)];
-        const Anchor& ay = corr.anchors[static_cast<std::size_t>(y)];
-        const int vx = vertex_at(surf, side == 0 ? ax.source : ax.canonical, tol);
-        const int vy = vertex_at(surf, side == 0 ? ay.source : ay.canonical, tol);
-        std::vector<std::uint32_t> chain;
-        if (vx >= 0 && vy >= 0)
-          chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
-                                static_cast<std::uint32_t>(vy), &of, patch);
-        if (chain.size() < 2) {
-          why =
-              "mapping: no path splits a patch with a hole (anchors not at mesh vertices, or "
-              "blocked)";
-          return false;
+    // Two paths, first loop -> hole, between the same anchors on both sides. Candidates: each
+    // anchor a1 of the first loop, nearest the hole first (canonical positions), with the
+    // first-loop anchor half-way round from it (a2) and, on the hole, the anchor nearest a1
+    // (b1) and the one half-way round from that (b2). A candidate is kept when both paths exist
+    // on both sides and the two layouts still have the same patch keys (a path leaving an
+    // anchor into a one-triangle wedge, measured on the OpenCASCADE hub, has none).
+    auto canon_pos = [&](int m) { return corr.anchors[static_cast<std::size_t>(m)].canonical; };
+    auto dist = [](const double* p, const double* q) {
+      return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+    };
+    auto nearest_on_hole = [&](int a) {
+      std::size_t nearest = 0;
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t k = 0; k < hole.anchors.size(); ++k) {
+        const double d = dist(canon_pos(hole.anchors[k]), canon_pos(a));
+        if (d < best) {
+          best = d;
+          nearest = k;
         }
-        cut_along(surf, chain, cuts);
-        (side == 0 ? src_traced : can_traced).push_back(std::move(chain));
       }
+      return std::make_pair(nearest, best);
+    };
+    const std::size_t M = c.anchors.size();
+    std::vector<std::pair<double, std::size_t>> order;
+    for (std::size_t i = 0; i < M; ++i) order.emplace_back(nearest_on_hole(c.anchors[i]).second, i);
+    std::sort(order.begin(), order.end());
+    // An anchor where earlier splits met occurs several times on the loop, and several
+    // anchors may share one vertex (a closed edge's vertex): try each vertex once.
+    std::vector<int> seen;
+    order.erase(std::remove_if(order.begin(), order.end(),
+                               [&](const std::pair<double, std::size_t>& o) {
+                                 const int a = can_anchor_of_all[static_cast<std::size_t>(
+                                     c.anchors[o.second])];
+                                 if (std::find(seen.begin(), seen.end(), a) != seen.end())
+                                   return true;
+                                 seen.push_back(a);
+                                 return false;
+                               }),
+                order.end());
+    if (order.size() > 12) order.resize(12);
+    bool split = false;
+    for (const auto& [d0, i] : order) {
+      (void)d0;
+      const int a1 = c.anchors[i], a2 = c.anchors[(i + M / 2) % M];
+      const std::size_t nearest = nearest_on_hole(a1).first;
+      const int b1 = hole.anchors[nearest];
+      const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
+      std::vector<char> try_cuts[2] = {src_cuts, can_cuts};
+      std::vector<std::vector<std::uint32_t>> try_traced[2];
+      bool ok = true;
+      for (int side = 0; side < 2 && ok; ++side) {
+        const Surface& surf = side == 0 ? ss : cs;
+        std::vector<char>& cuts = try_cuts[side];
+        const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
+        const int patch = static_cast<int>(side == 0 ? sidx : holed);
+        const double tol = side == 0 ? src_tol : can_tol;
+        for (const auto& [x, y] : {std::make_pair(a1, b1), std::make_pair(a2, b2)}) {
+          const Anchor& ax = corr.anchors[static_cast<std::size_t>(x)];
+          const Anchor& ay = corr.anchors[static_cast<std::size_t>(y)];
+          const int vx = vertex_at(surf, side == 0 ? ax.source : ax.canonical, tol);
+          const int vy = vertex_at(surf, side == 0 ? ay.source : ay.canonical, tol);
+          std::vector<std::uint32_t> chain;
+          if (vx >= 0 && vy >= 0) {
+            chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
+                                  static_cast<std::uint32_t>(vy), &of, patch);
+            // A coarse mesh may have no vertex off the loops between them (a small hole near
+            // the rim: one triangle row): the path may then touch loops away from anchors, and
+            // build_patches cuts the patch open there; the anchors' cyclic order is unchanged.
+            if (chain.size() < 2) {
+              std::vector<char> never(surf.sample->vertex_count(), 0);
+              for (int v : side == 0 ? src_anchor_of_all : can_anchor_of_all)
+                if (v >= 0) never[static_cast<std::size_t>(v)] = 1;
+              // Nor the first path of this split: touching it would enclose anchorless bits.
+              for (const auto& ch : try_traced[side])
+                for (std::uint32_t v : ch) never[v] = 1;
+              chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
+                                    static_cast<std::uint32_t>(vy), &of, patch, &never);
+            }
+          }
+          if (chain.size() < 2) {
+            ok = false;
+            break;
+          }
+          cut_along(surf, chain, cuts);
+          try_traced[side].push_back(std::move(chain));
+        }
+      }
+      if (!ok) continue;
+      std::vector<Patch> tsp, tcp;
+      std::string ignored;
+      if (!build_patches(ss, try_cuts[0], src_anchor, src_tol, true, tsp, ignored) ||
+          !build_patches(cs, try_cuts[1], can_anchor, can_tol, true, tcp, ignored) ||
+          tsp.size() != tcp.size())
+        continue;
+      std::vector<std::vector<int>> ks, kc;
+      for (const Patch& q : tsp) ks.push_back(q.key());
+      for (const Patch& q : tcp) kc.push_back(q.key());
+      std::sort(ks.begin(), ks.end());
+      std::sort(kc.begin(), kc.end());
+      if (ks != kc) continue;
+      src_cuts = std::move(try_cuts[0]);
+      can_cuts = std::move(try_cuts[1]);
+      for (auto& ch : try_traced[0]) src_traced.push_back(std::move(ch));
+      for (auto& ch : try_traced[1]) can_traced.push_back(std::move(ch));
+      split = true;
+      break;
+    }
+    if (!split) {
+      why =
+          "mapping: no pair of paths splits a patch with a hole the same way on both sides "
+          "(anchors not at mesh vertices, blocked, or the layouts differ after the split; " +
+          std::to_string(order.size()) + " candidates tried)";
+      return false;
     }
   }
   std::vector<int> source_of;
@@ -575,23 +654,44 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       out.vertices[3 * v + std::size_t(a)] = x;
     }
   }
-  // §6.4: the interior follows.
-  if (!harmonic_interior(canonical.vertices, canonical.tets, on_surface, out.vertices, why)) {
-    why = "mapping: " + why;
-    return false;
-  }
-  TetQuality q = tet_quality(out.vertices, canonical.tets);
-  if (q.inverted > 0) {
-    // The same volume threshold as tet_quality (builder::validate's rule), on the mapped mesh.
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (std::size_t v = 0; v < V; ++v)
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], out.vertices[3 * v + std::size_t(a)]);
-        hi[a] = std::max(hi[a], out.vertices[3 * v + std::size_t(a)]);
-      }
-    const double diag = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-    untangle(canonical.tets, on_surface, 1e-12 * diag * diag * diag, out.vertices);
+  // §6.4: the interior follows: the P1-harmonic solve (exact on affine maps), untangled; where
+  // tets stay inverted, once more in MapOptions::fallback_steps boundary increments with
+  // volume-stiffened tets (measured on the OpenCASCADE wrench, 10 random pairs: one harmonic
+  // solve 5 mapped, 4 increments alone 5, stiffening alone 5 (exponent 1) or 4 (2), both 8).
+  const std::vector<double> surface_map = out.vertices;
+  auto interior = [&](int steps, double stiffening, TetQuality& q) {
+    out.vertices = surface_map;
+    if (!incremental_interior(canonical.vertices, canonical.tets, on_surface, out.vertices, why,
+                              steps, stiffening)) {
+      why = "mapping: " + why;
+      return false;
+    }
     q = tet_quality(out.vertices, canonical.tets);
+    if (q.inverted > 0) {
+      // The same volume threshold as tet_quality (builder::validate's rule), on the mapped mesh.
+      double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+      for (std::size_t v = 0; v < V; ++v)
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], out.vertices[3 * v + std::size_t(a)]);
+          hi[a] = std::max(hi[a], out.vertices[3 * v + std::size_t(a)]);
+        }
+      const double diag = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+      untangle(canonical.tets, on_surface, 1e-12 * diag * diag * diag, out.vertices);
+      q = tet_quality(out.vertices, canonical.tets);
+    }
+    return true;
+  };
+  TetQuality q;
+  if (!interior(options.interior_steps, options.stiffening, q)) return false;
+  if (q.inverted > 0 && options.fallback_steps > 0) {
+    const std::vector<double> first = out.vertices;
+    TetQuality q2;
+    if (!interior(options.fallback_steps, options.fallback_stiffening, q2)) return false;
+    if (q2.inverted < q.inverted) {
+      q = q2;
+    } else {
+      out.vertices = first;
+    }
   }
   if (stats) {
     stats->matched_points = corr.anchors.size();
@@ -602,8 +702,20 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->inverted = q.inverted;
   }
   if (q.inverted > 0) {
+    // Tets with all four vertices on the boundary are fixed by the surface map alone: no
+    // interior solve or untangling can repair them, so the message tells them apart.
+    std::size_t surface_only = 0;
+    for (std::size_t t = 0; t < canonical.tet_count(); ++t) {
+      const std::uint32_t* c = &canonical.tets[4 * t];
+      if (on_surface[c[0]] && on_surface[c[1]] && on_surface[c[2]] && on_surface[c[3]] &&
+          tet_quality(out.vertices, std::vector<std::uint32_t>(c, c + 4)).inverted == 0)
+        continue;
+      if (on_surface[c[0]] && on_surface[c[1]] && on_surface[c[2]] && on_surface[c[3]])
+        ++surface_only;
+    }
     why = "mapping: the harmonic interior would invert or flatten " + std::to_string(q.inverted) +
-          " of " + std::to_string(canonical.tet_count()) + " tets";
+          " of " + std::to_string(canonical.tet_count()) + " tets (" +
+          std::to_string(surface_only) + " of them with all four vertices on the boundary)";
     return false;
   }
   const TetLocator locator(source);

@@ -31,6 +31,13 @@ struct MapStats {
 struct MapOptions {
   /// Sweeps of the in-patch relaxation (mesh_mapper.cpp): 0 keeps the composed disk maps.
   int relax_iterations = 30;
+  /// Interior solve (interior_solve.h): boundary increments, and the stiffening exponent.
+  int interior_steps = 1;
+  double stiffening = 0.0;
+  /// Where tets stay inverted after that (and the untangling), the solve once more with these
+  /// (0 steps: no second solve).
+  int fallback_steps = 4;
+  double fallback_stiffening = 1.0;
 };
 
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not

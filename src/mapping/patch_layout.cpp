@@ -57,8 +57,17 @@ bool measure_loop(const Surface& s, const std::vector<const double*>& anchor_pos
   l.s.assign(n + 1, 0.0);
   for (std::size_t i = 0; i < n; ++i)
     l.s[i + 1] = l.s[i] + distance(s.position(l.vertices[i]), s.position(l.vertices[(i + 1) % n]));
+  // An anchor at a loop vertex is found at every visit of that vertex (a seam's vertices are
+  // visited twice, once per side); one between vertices (rounding) at its nearest segment.
   std::vector<std::pair<double, int>> found;
   for (std::size_t m = 0; m < anchor_positions.size(); ++m) {
+    bool at_vertex = false;
+    for (std::size_t i = 0; i < n; ++i)
+      if (distance(anchor_positions[m], s.position(l.vertices[i])) <= tolerance) {
+        found.emplace_back(l.s[i], static_cast<int>(m));
+        at_vertex = true;
+      }
+    if (at_vertex) continue;
     double best = tolerance, best_s = 0;
     bool on = false;
     for (std::size_t i = 0; i < n; ++i) {
@@ -75,12 +84,20 @@ bool measure_loop(const Surface& s, const std::vector<const double*>& anchor_pos
   }
   if (found.empty()) return false;
   std::sort(found.begin(), found.end());
-  // Start the cyclic order at the smallest anchor index, so both sides agree.
-  const auto first =
-      std::min_element(found.begin(), found.end(),
-                       [](const auto& a, const auto& b) { return a.second < b.second; }) -
-      found.begin();
-  std::rotate(found.begin(), found.begin() + first, found.end());
+  // Start the cyclic order at its lexicographically smallest rotation (the smallest anchor
+  // index first; ties, when a seam anchor occurs twice, broken by what follows), so both sides
+  // agree.
+  const std::size_t M = found.size();
+  std::size_t first = 0;
+  for (std::size_t r = 1; r < M; ++r)
+    for (std::size_t j = 0; j < M; ++j) {
+      const int a = found[(r + j) % M].second, b = found[(first + j) % M].second;
+      if (a != b) {
+        if (a < b) first = r;
+        break;
+      }
+    }
+  std::rotate(found.begin(), found.begin() + static_cast<long>(first), found.end());
   for (const auto& [arc, m] : found) {
     l.anchors.push_back(m);
     l.anchor_s.push_back(arc);
@@ -119,22 +136,59 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
 
   for (std::size_t pi = 0; pi < out.size(); ++pi) {
     Patch& p = out[pi];
-    // Boundary half-edges: those whose twin lies in another patch (or nowhere).
-    std::map<std::uint32_t, int> outgoing;  // ordered: loops are traced deterministically
-    std::vector<std::uint32_t> verts;
+    // Boundary half-edges: those whose twin lies in another patch (or nowhere), and cut ones
+    // whose twin lies in this patch (a seam: the patch is cut open along it, §6.2 requires
+    // disks). Triangle corners are the local vertices, merged across the patch's inner
+    // (uncut) edges: across half-edge h (a -> b) with twin t (b -> a), h's corner at a is
+    // next(t)'s, and next(h)'s corner at b is t's.
+    auto in_patch = [&](int h) {
+      const int t = s.twin[static_cast<std::size_t>(h)];
+      return t >= 0 && patch_of[static_cast<std::size_t>(t / 3)] == static_cast<int>(pi);
+    };
+    auto next = [](int h) { return 3 * (h / 3) + (h % 3 + 1) % 3; };
+    std::map<int, int> corner;  // half-edge of the patch -> its index among the patch's corners
+    for (int f : p.triangles)
+      for (int k = 0; k < 3; ++k) corner.emplace(3 * f + k, static_cast<int>(corner.size()));
+    std::vector<int> cparent(corner.size());
+    std::iota(cparent.begin(), cparent.end(), 0);
+    auto unite = [&](int h1, int h2) {
+      const int a = find_root(cparent, corner.at(h1)), b = find_root(cparent, corner.at(h2));
+      if (a != b) cparent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+    };
+    for (int f : p.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const int h = 3 * f + k;
+        if (!in_patch(h) || cuts[static_cast<std::size_t>(h)]) continue;
+        const int t = s.twin[static_cast<std::size_t>(h)];
+        unite(h, next(t));
+        unite(next(h), t);
+      }
+    // Local vertices numbered by first corner, in the patch's triangle order: deterministic.
+    std::map<int, int> local_of_root;
+    p.corner_local.assign(corner.size(), -1);
+    p.local_vertices.clear();
+    for (const auto& [h, ci] : corner) {
+      const int r = find_root(cparent, ci);
+      auto it = local_of_root.find(r);
+      if (it == local_of_root.end()) {
+        it = local_of_root.emplace(r, static_cast<int>(p.local_vertices.size())).first;
+        p.local_vertices.push_back(s.from(h));
+      }
+      p.corner_local[static_cast<std::size_t>(ci)] = it->second;
+    }
+    auto local_of = [&](int h) { return p.corner_local[static_cast<std::size_t>(corner.at(h))]; };
+    std::map<int, int> outgoing;  // local vertex -> its boundary half-edge (ordered: loops are
+                                  // traced deterministically)
     int border = 0;
     bool pinched = false;
     for (int f : p.triangles)
       for (int k = 0; k < 3; ++k) {
         const int h = 3 * f + k;
-        verts.push_back(s.from(h));
-        const int t = s.twin[static_cast<std::size_t>(h)];
-        if (t >= 0 && patch_of[static_cast<std::size_t>(t / 3)] == static_cast<int>(pi)) continue;
+        if (in_patch(h) && !cuts[static_cast<std::size_t>(h)]) continue;
         ++border;
-        if (!outgoing.emplace(s.from(h), h).second) pinched = true;
+        if (!outgoing.emplace(local_of(h), h).second) pinched = true;
       }
-    std::sort(verts.begin(), verts.end());
-    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    const std::size_t local_count = p.local_vertices.size();
     if (border == 0 || pinched) {
       why = describe(p, s) + " is not a disk (" +
             (pinched ? "pinched boundary" : "a closed surface without boundary") + ")";
@@ -142,21 +196,22 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
     }
     // Trace every loop, each from its smallest vertex.
     std::vector<Loop> loops;
-    std::map<std::uint32_t, char> visited;
+    std::map<int, char> visited;
     for (const auto& [start, h0] : outgoing) {
       (void)h0;
       if (visited.count(start)) continue;
       Loop l;
-      std::uint32_t v = start;
+      int v = start;
       do {
-        l.vertices.push_back(v);
         visited.emplace(v, 1);
         auto it = outgoing.find(v);
         if (it == outgoing.end() || l.vertices.size() > outgoing.size()) {
           why = describe(p, s) + " has a broken boundary loop";
           return false;
         }
-        v = s.to(it->second);
+        l.vertices.push_back(s.from(it->second));
+        l.local.push_back(v);
+        v = local_of(next(it->second));
       } while (v != start);
       if (!measure_loop(s, anchor_positions, tolerance, l)) {
         why = describe(p, s) + " has a boundary loop without matched control point";
@@ -165,7 +220,7 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
       loops.push_back(std::move(l));
     }
     const long T = static_cast<long>(p.triangles.size());
-    const long euler = static_cast<long>(verts.size()) - (3 * T + border) / 2 + T;
+    const long euler = static_cast<long>(local_count) - (3 * T + border) / 2 + T;
     const long disk_with_holes = 2 - static_cast<long>(loops.size());
     if (euler != disk_with_holes || (loops.size() > 1 && !allow_holes)) {
       why = describe(p, s) + " is not a disk (Euler characteristic " + std::to_string(euler) +
@@ -176,6 +231,7 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
     std::sort(loops.begin(), loops.end(),
               [](const Loop& a, const Loop& b) { return a.anchors[0] < b.anchors[0]; });
     p.loop = std::move(loops[0].vertices);
+    p.loop_local = std::move(loops[0].local);
     p.loop_s = std::move(loops[0].s);
     p.anchors = std::move(loops[0].anchors);
     p.anchor_s = std::move(loops[0].anchor_s);

@@ -17,7 +17,8 @@ namespace cadinterp::mapping {
 
 /// A boundary loop of a patch, the patch on its left seen from outside.
 struct Loop {
-  std::vector<std::uint32_t> vertices;
+  std::vector<std::uint32_t> vertices;  ///< surface vertices; a seam's appear twice
+  std::vector<int> local;               ///< the same loop in Patch::local_vertices' numbering
   std::vector<double> s;         ///< arc length at vertices[i]; size()+1 values (last: length)
   std::vector<int> anchors;      ///< indices into Correspondence::anchors, in loop order,
                                  ///< starting at the smallest
@@ -32,12 +33,22 @@ struct Patch {
   std::vector<double> anchor_s;     ///< as Loop::anchor_s
   std::vector<Loop> holes;          ///< further loops (build_patches with allow_holes), ordered
                                     ///< by their smallest anchor
+  /// The patch cut open along every cut inside it (a periodic face's seam): a surface vertex
+  /// on such a cut has one local copy per side. `local_vertices[l]` is local vertex l's surface
+  /// vertex, `corner_local` the local vertex of each triangle corner (3 per `triangles` entry,
+  /// in the surface's corner order), `loop_local` the local vertex of each `loop` entry.
+  std::vector<std::uint32_t> local_vertices;
+  std::vector<int> corner_local;
+  std::vector<int> loop_local;
   /// What pairs patches across the samples: each loop's anchors in cyclic order.
   std::vector<int> key() const;
 };
 
-/// Patches of one side. `anchor_positions[m]` is anchor m's position on this side. Fails when a
-/// patch has a pinched boundary, a loop without anchor, or is not a disk: with `allow_holes`,
+/// Patches of one side. `anchor_positions[m]` is anchor m's position on this side. A cut whose
+/// two sides lie in the same patch (the seam of a periodic B-rep face: a cylinder's lateral face
+/// between its two circles) is part of that patch's boundary, which then runs along it twice,
+/// once per side, with the seam's vertices duplicated in the patch's local numbering. Fails
+/// when a patch has a pinched boundary (after that cutting), a loop without anchor, or is not a disk: with `allow_holes`,
 /// a sphere with holes (Euler characteristic 2 - loops) is accepted and its loops other than
 /// the first go to `holes`, for the caller to cut (§6.2's subdivision).
 bool build_patches(const Surface& s, const std::vector<char>& cuts,
