@@ -1,23 +1,36 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds the release preset, precomputes the analytic
-# bracket model (4 parameters: length, height, thickness, bend angle; temperature and von Mises
-# fields) into an asset, then prints what is in it and evaluates it at two designs, writing the
-# meshes as VTU (ParaView) and glTF (any viewer) into build/demo/.
-#   scripts/demo.sh [extra `cadinterp build` options, e.g. --geometry-tol 5e-4 --threads 2]
+# The main job: installs what is missing, builds the release preset, precomputes the wrench of the
+# OpenCASCADE example host (examples/hosts/occt: B-rep regeneration, TetGen, FEM von Mises and
+# displacement) into an asset, prints what is in it and one evaluated design, then starts the
+# explorer (`cadinterp explore`) and prints its URL: open it, drag the sliders.
+#   scripts/demo.sh [extra `cadinterp build` options]      PORT=8080 by default
+# The sample store makes the build resumable and reusable: run the script again and it reads every
+# finished sample from build/demo/wrench.store instead of calling OpenCASCADE again.
+#
+# Parameters: head_fillet (the head-handle fillet, whose size changes the B-rep and the mesh, so
+# samples are mapped onto each other, paper §6) and load_angle (the load's direction: physics only,
+# like the paper's swing). The full four-parameter wrench is `--host-options mesh_size=6` without
+# `vary=`; see examples/hosts/occt/README.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
+explorer=examples/explorer
+if [ ! -f $explorer/node_modules/.package-lock.json ] ||
+   [ $explorer/package-lock.json -nt $explorer/node_modules/.package-lock.json ]; then
+  (cd $explorer && npm ci --no-audit --no-fund)
+fi
+scripts/build-wasm.sh >/dev/null
 cmake --preset release >/dev/null
-cmake --build --preset release -j "$(nproc)" --target cadinterp_cli
+cmake --build --preset release -j "$(nproc)" \
+  --target cadinterp_cli cadinterp_host_occt cadinterp_explorer_page
 cli=./build/release/src/tools/cadinterp
+host=./build/release/examples/hosts/occt/libcadinterp_host_occt.so
 out=build/demo
 mkdir -p "$out"
-# The store makes the build resumable: run the script again after Ctrl-C and it continues.
-"$cli" build --host analytic --model bracket --store "$out/bracket.store" \
-  -o "$out/bracket.cadi" "$@"
-"$cli" inspect "$out/bracket.cadi"
-"$cli" eval "$out/bracket.cadi" 50 40 5 90 --fields temperature,von_mises \
-  --vtu "$out/bracket_50_40_5_90.vtu" --gltf "$out/bracket_50_40_5_90.glb"
-"$cli" eval "$out/bracket.cadi" 75 55 7.5 120 --grad \
-  --vtu "$out/bracket_75_55_7.5_120.vtu"
+"$cli" build --host "$host" --model wrench \
+  --host-options mesh_size=6,vary=head_fillet+load_angle --max-samples 40 --max-depth 4 \
+  --store "$out/wrench.store" -o "$out/wrench.cadi" -q "$@"
+"$cli" inspect "$out/wrench.cadi"
+"$cli" eval "$out/wrench.cadi" 6 15 --vtu "$out/wrench_6_15.vtu" --gltf "$out/wrench_6_15.glb"
 echo "meshes written to $out/"
+exec "$cli" explore "$out/wrench.cadi" --port "${PORT:-8080}"
