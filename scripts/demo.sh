@@ -17,7 +17,7 @@ scripts/install-deps.sh
 explorer=examples/explorer
 if [ ! -f $explorer/node_modules/.package-lock.json ] ||
    [ $explorer/package-lock.json -nt $explorer/node_modules/.package-lock.json ]; then
-  (cd $explorer && npm ci --no-audit --no-fund)
+  (cd $explorer && npm install --no-audit --no-fund)
 fi
 scripts/build-wasm.sh >/dev/null
 cmake --preset release >/dev/null

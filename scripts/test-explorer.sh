@@ -7,7 +7,7 @@
 # Each also prints the page's per-move work without a browser (test/update-bench.mjs).
 # Environment: BUILD_DIR (default build/release; configured and built here if needed, targets
 # cadinterp_cli and cadinterp_explorer_page only), JOBS (default 2).
-# Needs node >= 18, Debian's chromium (/usr/bin/chromium), the npm registry once (`npm ci`), and
+# Needs node >= 18, Debian's chromium (/usr/bin/chromium), the npm registry once (`npm install`), and
 # the WebAssembly runtime in build/wasm (scripts/build-wasm.sh, run here when it is missing).
 # Screenshots and measurements land in $BUILD_DIR/explorer-test/.
 set -euo pipefail
@@ -26,10 +26,12 @@ build=${BUILD_DIR:-build/release}
 jobs=${JOBS:-2}
 explorer=examples/explorer
 
-# npm ci when node_modules is missing or older than the lock file.
+# npm install (not npm ci) when node_modules is missing or older than the lock file: the lock
+# records only this platform's optional packages (rollup's native builds), which npm ci refuses
+# as out of sync, while npm install installs exactly the locked versions and leaves the lock as is.
 if [ ! -f $explorer/node_modules/.package-lock.json ] ||
    [ $explorer/package-lock.json -nt $explorer/node_modules/.package-lock.json ]; then
-  (cd $explorer && npm ci --no-audit --no-fund)
+  (cd $explorer && npm install --no-audit --no-fund)
 fi
 if [ ! -f build/wasm/cadinterp.mjs ] || [ ! -f build/wasm/cadinterp_wasm.wasm ]; then
   if [ -x scripts/build-wasm.sh ]; then

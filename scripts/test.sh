@@ -15,6 +15,15 @@ JOBS="${JOBS:-$(nproc)}"
 scripts/install-deps.sh
 
 step() { printf '\n== %s\n' "$*"; }
+# Runs a Node test script with its output in LOG: prints the summary, or the log's tail on failure.
+quiet_unless_failed() {
+  local log=$1; shift
+  mkdir -p "$(dirname "$log")"
+  if ! "$@" >"$log" 2>&1; then
+    tail -n 80 "$log"; echo "FAILED: $* (full log: $log)"; return 1
+  fi
+  grep -E '^(# |ℹ )(tests|pass|fail|skipped) ' "$log" || true
+}
 
 step "dev: build (Debug, warnings are errors)"
 cmake --preset dev >/dev/null
@@ -40,11 +49,10 @@ cmake --build --preset tsan -j "$JOBS"
 ctest --preset tsan -j "$JOBS" -L concurrency
 
 step "wasm: build the WebAssembly runtime, run its Node tests"
-scripts/test-wasm.sh 2>&1 | grep -E '^# (tests|pass|fail|skipped)'
-test "${PIPESTATUS[0]}" -eq 0
+quiet_unless_failed build/wasm-test.log scripts/test-wasm.sh
 
 step "explorer: the web page in headless Chromium against the native runtime"
-BUILD_DIR=build/release scripts/test-explorer.sh 2>&1 | grep -E '^# (tests|pass|fail|skipped)'
+BUILD_DIR=build/release quiet_unless_failed build/explorer-test.log scripts/test-explorer.sh
 
 step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
 scripts/fuzz.sh 30 2>&1 | tail -3
