@@ -13,6 +13,12 @@ namespace cadinterp::builder {
 
 namespace {
 
+/// max - min of a host field, the scale of its relative errors (never 0).
+double value_range(const std::vector<double>& values) {
+  const auto mm = std::minmax_element(values.begin(), values.end());
+  return std::max(*mm.second - *mm.first, 1e-300);
+}
+
 double percentile99(std::vector<double> v) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -95,9 +101,7 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
       for (std::size_t k = 0; k < fields.size(); ++k) {
         const auto fi = static_cast<std::size_t>(fields[k]);
         if (fi >= truth.fields.size()) continue;
-        const std::vector<double>& tv = truth.fields[fi].values;
-        const auto mm = std::minmax_element(tv.begin(), tv.end());
-        const double range = std::max(*mm.second - *mm.first, 1e-300);
+        const double range = value_range(truth.fields[fi].values);
         const auto C = static_cast<std::size_t>(truth.fields[fi].components);
         std::vector<double> value(C);
         for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
@@ -119,8 +123,7 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
       const auto fi = static_cast<std::size_t>(fields[k]);
       if (fi >= truth.fields.size()) continue;
       const std::vector<double>& tv = truth.fields[fi].values;
-      const auto mm = std::minmax_element(tv.begin(), tv.end());
-      const double range = std::max(*mm.second - *mm.first, 1e-300);
+      const double range = value_range(tv);
       for (std::size_t v = 0; v < tv.size(); ++v)
         e = std::max(e, std::abs(static_cast<double>(m.fields[k][v]) - tv[v]) / range);
     }

@@ -214,4 +214,17 @@ SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec) {
   return out;
 }
 
+SyntheticSpec benchmark_fixture_spec() {
+  SyntheticSpec spec;
+  spec.K = 3;
+  spec.cells[0] = 80;
+  spec.cells[1] = 40;
+  spec.cells[2] = 30;
+  spec.fields = true;
+  spec.max_samples = 27;
+  spec.tolerance = 1e9;
+  spec.check_face_centres = false;
+  return spec;
+}
+
 }  // namespace cadinterp::format

@@ -49,4 +49,8 @@ struct SyntheticAsset {
 };
 SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec);
 
+/// The runtime benchmarks' fixture (runtime_bench, the WebAssembly-vs-native comparison): K = 3,
+/// 80 x 40 x 30 cells (about 103k vertices), fields, 27 samples (one level per direction).
+SyntheticSpec benchmark_fixture_spec();
+
 }  // namespace cadinterp::format

@@ -362,20 +362,8 @@ int sweep(const std::vector<std::string>& args) {
       std::printf("step %d: %s\n", i, cadinterp_workspace_error(ws));
       continue;
     }
-    cli::ExportMesh em;
-    em.vertex_count = m.vertex_count;
-    em.tet_count = m.tet_count;
-    em.triangle_count = m.triangle_count;
-    em.positions = m.positions;
-    em.tets = m.tets;
-    em.triangles = m.triangles;
-    em.triangle_tags = m.triangle_tags;
-    for (std::size_t k = 0; k < fields.size(); ++k) {
-      cadinterp_field_info info;
-      cadinterp_field(asset, fields[k], &info);
-      em.fields.push_back(
-          {info.name, info.location == CADINTERP_PER_TET, info.components, m.fields[k]});
-    }
+    cli::ExportMesh em =
+        cli::export_mesh_of(asset, m, fields.data(), static_cast<int>(fields.size()));
     em.generator = "cadinterp-mapping-report sweep";
     char name[64];
     std::snprintf(name, sizeof name, "/sweep_%03d.vtu", i);

@@ -33,15 +33,7 @@ struct Big {
 const Big& big() {
   static const std::unique_ptr<Big> b = [] {
     auto r = std::make_unique<Big>();
-    format::SyntheticSpec spec;
-    spec.K = 3;
-    spec.cells[0] = 80;
-    spec.cells[1] = 40;
-    spec.cells[2] = 30;
-    spec.fields = true;
-    spec.max_samples = 27;
-    spec.tolerance = 1e9;
-    spec.check_face_centres = false;
+    format::SyntheticSpec spec = format::benchmark_fixture_spec();
     const format::SyntheticAsset a = format::make_synthetic_asset(spec);
     format::WriteOptions o;
     r->bytes = format::write_asset(a.content, o);

@@ -715,14 +715,8 @@ int cmd_eval(const std::vector<std::string>& args) {
            ws.get(), "eval");
 
   // Everything that reads the mesh happens before the next call with this workspace.
-  ExportMesh em;
-  em.vertex_count = mesh.vertex_count;
-  em.tet_count = mesh.tet_count;
-  em.triangle_count = mesh.triangle_count;
-  em.positions = mesh.positions;
-  em.tets = mesh.tets;
-  em.triangles = mesh.triangles;
-  em.triangle_tags = mesh.triangle_tags;
+  ExportMesh em = export_mesh_of(asset.get(), mesh, field_idx.data(),
+                                 static_cast<int>(field_idx.size()));
   em.generator = std::string("cadinterp ") + cadinterp_version();
   struct FieldSummary {
     std::string name;
@@ -732,13 +726,10 @@ int cmd_eval(const std::vector<std::string>& args) {
   };
   std::vector<FieldSummary> field_summaries;
   for (std::size_t i = 0; i < field_idx.size(); ++i) {
-    cadinterp_field_info info{};
-    cadinterp_field(asset.get(), field_idx[i], &info);
-    const bool per_tet = info.location == CADINTERP_PER_TET;
-    em.fields.push_back({info.name, per_tet, info.components, mesh.fields[i]});
-    const std::size_t n = static_cast<std::size_t>(per_tet ? mesh.tet_count : mesh.vertex_count) *
-                          static_cast<std::size_t>(info.components);
-    FieldSummary fs{info.name, per_tet, info.components, 0, 0};
+    const ExportMesh::Field& f = em.fields[i];
+    const std::size_t n = static_cast<std::size_t>(f.per_tet ? mesh.tet_count : mesh.vertex_count) *
+                          static_cast<std::size_t>(f.components);
+    FieldSummary fs{f.name, f.per_tet, f.components, 0, 0};
     if (n > 0) {
       const auto mm = std::minmax_element(mesh.fields[i], mesh.fields[i] + n);
       fs.min = *mm.first;

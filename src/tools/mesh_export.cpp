@@ -462,4 +462,23 @@ ExportSummary write_gltf(const std::string& path, const ExportMesh& m) {
   return {Vs, m.triangle_count, out.size()};
 }
 
+ExportMesh export_mesh_of(const cadinterp_asset* asset, const cadinterp_mesh& mesh,
+                          const int* fields, int field_count) {
+  ExportMesh em;
+  em.vertex_count = mesh.vertex_count;
+  em.tet_count = mesh.tet_count;
+  em.triangle_count = mesh.triangle_count;
+  em.positions = mesh.positions;
+  em.tets = mesh.tets;
+  em.triangles = mesh.triangles;
+  em.triangle_tags = mesh.triangle_tags;
+  for (int k = 0; k < field_count; ++k) {
+    cadinterp_field_info info{};
+    cadinterp_field(asset, fields[k], &info);
+    em.fields.push_back(
+        {info.name, info.location == CADINTERP_PER_TET, info.components, mesh.fields[k]});
+  }
+  return em;
+}
+
 }  // namespace cadinterp::cli

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "cadinterp/cadinterp.h"
+
 namespace cadinterp::cli {
 
 /// A mesh as cadinterp_eval returns it (pointers borrowed, not owned).
@@ -27,6 +29,11 @@ struct ExportMesh {
   std::vector<Field> fields;
   std::string generator = "cadinterp";  ///< recorded where the format has a place for it
 };
+
+/// The mesh and fields of one cadinterp_eval call (`fields`: the indices passed to it), ready to
+/// export. Borrows the mesh's arrays: valid until the next call with its workspace.
+ExportMesh export_mesh_of(const cadinterp_asset* asset, const cadinterp_mesh& mesh,
+                          const int* fields, int field_count);
 
 /// What a writer put in the file (for the tool's message and the tests).
 struct ExportSummary {

@@ -50,16 +50,8 @@ double median_ms(int n, F&& call) {
 }
 
 int write(const char* path) {
-  cadinterp::format::SyntheticSpec spec;  // as runtime_bench.cpp's fixture
-  spec.K = 3;
-  spec.cells[0] = 80;
-  spec.cells[1] = 40;
-  spec.cells[2] = 30;
-  spec.fields = true;
-  spec.max_samples = 27;
-  spec.tolerance = 1e9;
-  spec.check_face_centres = false;
-  const auto a = cadinterp::format::make_synthetic_asset(spec);
+  const auto a =
+      cadinterp::format::make_synthetic_asset(cadinterp::format::benchmark_fixture_spec());
   cadinterp::format::write_asset_file(a.content, {}, path);
   return 0;
 }
