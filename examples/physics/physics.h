@@ -29,15 +29,15 @@ struct TetMesh {
 };
 
 struct Material {
-  double youngs_modulus = 210e3;  ///< E (MPa with mm)
-  double poisson_ratio = 0.3;     ///< nu, in [0, 0.5)
-  double conductivity = 50.0;     ///< k (W/(mm K) or the caller's unit)
-  double thermal_expansion = 12e-6;  ///< alpha (1/K)
+  double youngs_modulus = 210e3;       ///< E (MPa with mm)
+  double poisson_ratio = 0.3;          ///< nu, in [0, 0.5)
+  double conductivity = 50.0;          ///< k (W/(mm K) or the caller's unit)
+  double thermal_expansion = 12e-6;    ///< alpha (1/K)
   double reference_temperature = 0.0;  ///< temperature of zero thermal strain
 };
 
 /// Boundary conditions, each on the boundary triangles whose tag is in `tags`.
-struct Fixed {            ///< displacement components fixed to zero
+struct Fixed {  ///< displacement components fixed to zero
   std::vector<std::int32_t> tags;
   bool axes[3] = {true, true, true};  ///< which components (all: a clamp)
 };

@@ -372,8 +372,7 @@ std::string options_json(const BuildOptions& o, const char* mapper_name) {
          // Only a non-default transfer is recorded, so that default assets keep their bytes.
          (o.degree == core::Degree::Cubic && o.neighbour_transfer != NeighbourTransfer::Fallback
               ? std::string(",\"neighbour_transfer\":\"") +
-                    (o.neighbour_transfer == NeighbourTransfer::Always ? "always" : "direct") +
-                    "\""
+                    (o.neighbour_transfer == NeighbourTransfer::Always ? "always" : "direct") + "\""
               : std::string()) +
          "}";
 }
@@ -499,10 +498,9 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
       const Sample& ncanon = problem.sample(nrow);
       const Sample& canon = problem.sample(crow);
       const std::size_t nv3 = ncanon.vertices.size();
-      const mapping::NeighbourBridge br(ncanon, std::vector<double>(ps_n.vertices, ps_n.vertices + nv3),
-                                        canon,
-                                        std::vector<double>(ps_l.vertices,
-                                                            ps_l.vertices + canon.vertices.size()));
+      const mapping::NeighbourBridge br(
+          ncanon, std::vector<double>(ps_n.vertices, ps_n.vertices + nv3), canon,
+          std::vector<double>(ps_l.vertices, ps_l.vertices + canon.vertices.size()));
       MappedSample in;
       in.vertices.assign(pk_n.vertices, pk_n.vertices + nv3);
       for (std::size_t f = 0; f < ncanon.fields.size(); ++f)
@@ -527,8 +525,7 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
     const Sample& canon = problem.sample(crow);
     const double diag = src.bbox_diagonal();
     const std::vector<double> dv(d.vertices, d.vertices + canon.vertices.size());
-    const double hd =
-        symmetric_hausdorff(dv, canon.triangles, src.vertices, src.triangles) / diag;
+    const double hd = symmetric_hausdorff(dv, canon.triangles, src.vertices, src.triangles) / diag;
     const double hb =
         symmetric_hausdorff(viab->vertices, canon.triangles, src.vertices, src.triangles) / diag;
     NeighbourTransferStats& st = out.neighbour;
@@ -566,11 +563,10 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
 #ifdef CADINTERP_HAVE_MAPPING
       outside = cubic && !core::box_contains(tree.node(leaf).box, basis.sample(terms[t]), K);
       if (outside) ++out.neighbour.neighbour_terms;
-      if (outside && (opt.neighbour_transfer == NeighbourTransfer::Always ||
-                      opt.measure_neighbour_transfer)) {
+      if (outside &&
+          (opt.neighbour_transfer == NeighbourTransfer::Always || opt.measure_neighbour_transfer)) {
         auto b = std::make_unique<MappedSample>();
-        if (bridge(leaf, crow, terms[t], *b)) bridged[static_cast<std::size_t>(t)] =
-            std::move(b);
+        if (bridge(leaf, crow, terms[t], *b)) bridged[static_cast<std::size_t>(t)] = std::move(b);
       }
       if (opt.measure_neighbour_transfer && outside)
         compare_routes(row, crow, bridged[static_cast<std::size_t>(t)].get());
@@ -583,8 +579,7 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
 #ifdef CADINTERP_HAVE_MAPPING
         if (opt.neighbour_transfer == NeighbourTransfer::Fallback) {
           auto b = std::make_unique<MappedSample>();
-          if (bridge(leaf, crow, terms[t], *b))
-            bridged[static_cast<std::size_t>(t)] = std::move(b);
+          if (bridge(leaf, crow, terms[t], *b)) bridged[static_cast<std::size_t>(t)] = std::move(b);
         }
 #endif
       }

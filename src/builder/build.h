@@ -55,9 +55,9 @@ struct NeighbourTransferStats {
   /// Filled when BuildOptions::measure_neighbour_transfer: both routes computed for every
   /// neighbour term, each compared with the term's own sample (symmetric Hausdorff / its bbox
   /// diagonal) and by the min scaled Jacobian of the mapped tets.
-  int compared = 0;           ///< terms where both routes succeeded
-  int bridged_better = 0;     ///< of which the bridge's Hausdorff is smaller
-  int bridge_inverted = 0;    ///< bridged results with inverted tets (never emitted)
+  int compared = 0;         ///< terms where both routes succeeded
+  int bridged_better = 0;   ///< of which the bridge's Hausdorff is smaller
+  int bridge_inverted = 0;  ///< bridged results with inverted tets (never emitted)
   double direct_hausdorff_max = 0, bridged_hausdorff_max = 0;
   double direct_hausdorff_sum = 0, bridged_hausdorff_sum = 0;
   double direct_min_sj = 1, bridged_min_sj = 1;

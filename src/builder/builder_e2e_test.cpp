@@ -216,8 +216,7 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
   EXPECT_LT(st.bridged_hausdorff_max, 5 * o.geometry_tolerance);
   for (const auto& e : one.content.elements)
     for (const auto& p : e.positions)
-      EXPECT_EQ(mapping::tet_quality(std::vector<double>(p.begin(), p.end()), e.tets).inverted,
-                0u);
+      EXPECT_EQ(mapping::tet_quality(std::vector<double>(p.begin(), p.end()), e.tets).inverted, 0u);
 
   o.threads = 2;
   o.measure_neighbour_transfer = false;

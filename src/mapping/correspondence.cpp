@@ -118,10 +118,9 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     return m.vertices[3 * std::size_t(a)] < m.vertices[3 * std::size_t(b)];
   });
   auto vertex_near = [&](const double* p) -> std::int64_t {
-    auto it = std::lower_bound(by_x.begin(), by_x.end(), p[0] - tolerance,
-                               [&](std::uint32_t v, double x) {
-                                 return m.vertices[3 * std::size_t(v)] < x;
-                               });
+    auto it = std::lower_bound(
+        by_x.begin(), by_x.end(), p[0] - tolerance,
+        [&](std::uint32_t v, double x) { return m.vertices[3 * std::size_t(v)] < x; });
     for (; it != by_x.end() && m.vertices[3 * std::size_t(*it)] <= p[0] + tolerance; ++it) {
       const double* q = &m.vertices[3 * std::size_t(*it)];
       if (std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= tolerance) return *it;

@@ -136,9 +136,9 @@ bool incremental_interior(const std::vector<double>& vertices,
     for (std::size_t v = 0; v < V; ++v)
       if (fixed[v])
         for (std::size_t a = 0; a < 3; ++a)
-          next[3 * v + a] = s == steps ? mapped[3 * v + a]  // exactly the boundary data
-                                       : vertices[3 * v + a] +
-                                             f * (mapped[3 * v + a] - vertices[3 * v + a]);
+          next[3 * v + a] =
+              s == steps ? mapped[3 * v + a]  // exactly the boundary data
+                         : vertices[3 * v + a] + f * (mapped[3 * v + a] - vertices[3 * v + a]);
     if (!harmonic_interior(current, tets, fixed, next, why, stiffening)) return false;
     current = next;
   }

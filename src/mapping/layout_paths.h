@@ -41,8 +41,7 @@ int vertex_at(const Surface& s, const double* p, double tolerance);
 /// path may then touch a loop (the patch is cut open there, patch_layout.h) but not cross it.
 std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
                                          std::uint32_t a, std::uint32_t b,
-                                         const std::vector<int>* patch_of = nullptr,
-                                         int patch = -1,
+                                         const std::vector<int>* patch_of = nullptr, int patch = -1,
                                          const std::vector<char>* touch_except = nullptr);
 
 /// One side of the cyclic-order check: the surface, its cuts before and after adding a layout

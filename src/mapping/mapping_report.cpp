@@ -16,13 +16,13 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstring>
-#include <memory>
-#include <set>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <memory>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -165,13 +165,12 @@ int pairs(const std::vector<std::string>& args) {
                   topo ? "T" : "-", ms, why.c_str());
       continue;
     }
-    const mapping::PairQuality q =
-        mapping::measure_pair(a, c, m,
-                              am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
-                                return analytic_model_field_at(am, f, xa.data(), pt, v) ==
-                                       CADINTERP_OK;
-                              })
-                                 : mapping::FieldTruth());
+    const mapping::PairQuality q = mapping::measure_pair(
+        a, c, m,
+        am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
+          return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
+        })
+           : mapping::FieldTruth());
     // The canonical mesh's own quality, for comparison: the mapping cannot do better.
     const double own = mapping::tet_quality(c.vertices, c.tets).min_scaled_jacobian;
     char fmax[16] = "n/a", f99[16] = "n/a";
@@ -213,10 +212,10 @@ int pairs(const std::vector<std::string>& args) {
       tsum += times[i];
       vsum += sizes_v[i];
     }
-    std::printf("time per mapping: mean %.1f ms, max %.1f ms, at mean V_can %.0f (%.1f us per "
-                "canonical vertex)\n",
-                tsum / double(times.size()), mx(times), vsum / double(times.size()),
-                1e3 * tsum / vsum);
+    std::printf(
+        "time per mapping: mean %.1f ms, max %.1f ms, at mean V_can %.0f (%.1f us per "
+        "canonical vertex)\n",
+        tsum / double(times.size()), mx(times), vsum / double(times.size()), 1e3 * tsum / vsum);
   }
 
   // ms per mapping against the vertex count: the plate at one shape pair, finer and finer.
@@ -271,9 +270,9 @@ int cubic(const std::vector<std::string>& args) {
   const analytic_model* am = analytic_host_model(h);
   std::printf("model %s (%s), cubic, %d samples\n", model.c_str(), options.c_str(), samples);
   std::printf("%-9s %7s %7s %8s %7s %7s %7s | %8s %8s %10s %10s %10s %10s %7s %7s | %9s %9s %9s\n",
-              "transfer", "build_s", "samples", "elements", "infeas", "nb_term", "dir_fail", "bridged",
-              "br_fail", "dir_h_mean", "br_h_mean", "dir_h_max", "br_h_max", "dir_sj", "br_sj",
-              "geom_max", "geom_p99", "temp_max");
+              "transfer", "build_s", "samples", "elements", "infeas", "nb_term", "dir_fail",
+              "bridged", "br_fail", "dir_h_mean", "br_h_mean", "dir_h_max", "br_h_max", "dir_sj",
+              "br_sj", "geom_max", "geom_p99", "temp_max");
   const std::pair<builder::NeighbourTransfer, const char*> modes[] = {
       {builder::NeighbourTransfer::Direct, "direct"},
       {builder::NeighbourTransfer::Always, "always"},
@@ -296,16 +295,18 @@ int cubic(const std::vector<std::string>& args) {
     const builder::NeighbourTransferStats& st = r.neighbour;
     const double c = std::max(1, st.compared);
     std::printf(
-        "%-9s %7.1f %7d %8d %7d %7d %7d | %8d %8d %10.2e %10.2e %10.2e %10.2e %7.3f %7.3f | %9.2e %9.2e "
+        "%-9s %7.1f %7d %8d %7d %7d %7d | %8d %8d %10.2e %10.2e %10.2e %10.2e %7.3f %7.3f | %9.2e "
+        "%9.2e "
         "%9.2e\n",
-        name, r.report.wall_seconds, r.report.samples, r.report.elements, r.report.infeasible_elements,
-        st.neighbour_terms, st.direct_failed, st.bridged, st.bridge_failed,
-        st.direct_hausdorff_sum / c, st.bridged_hausdorff_sum / c, st.direct_hausdorff_max,
-        st.bridged_hausdorff_max, st.direct_min_sj, st.bridged_min_sj, a.geometry_max,
-        a.geometry_p99, a.field_max);
-    std::printf("          (%d terms compared; bridge better on %d; bridged results with inverted "
-                "tets: %d)\n",
-                st.compared, st.bridged_better, st.bridge_inverted);
+        name, r.report.wall_seconds, r.report.samples, r.report.elements,
+        r.report.infeasible_elements, st.neighbour_terms, st.direct_failed, st.bridged,
+        st.bridge_failed, st.direct_hausdorff_sum / c, st.bridged_hausdorff_sum / c,
+        st.direct_hausdorff_max, st.bridged_hausdorff_max, st.direct_min_sj, st.bridged_min_sj,
+        a.geometry_max, a.geometry_p99, a.field_max);
+    std::printf(
+        "          (%d terms compared; bridge better on %d; bridged results with inverted "
+        "tets: %d)\n",
+        st.compared, st.bridged_better, st.bridge_inverted);
     std::filesystem::remove(path);
   }
   return 0;

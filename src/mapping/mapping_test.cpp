@@ -306,7 +306,8 @@ TEST(MeshMapper, RefusesMalformedSamplesByName) {
 TEST(MeshMapper, InPatchRelaxationTightensCurvedFacesAndStaysOnTheSource) {
   const Model bracket("bracket", "cells=8");
   const std::vector<std::pair<std::vector<double>, std::vector<double>>> pairs{
-      {{42, 58, 7.5, 50}, {78, 33, 3.5, 130}}, {{60, 45, 5, 70}, {62, 47, 5.5, 110}},
+      {{42, 58, 7.5, 50}, {78, 33, 3.5, 130}},
+      {{60, 45, 5, 70}, {62, 47, 5.5, 110}},
       {{50, 40, 4, 100}, {70, 50, 6, 60}}};
   double total[2] = {0, 0};
   for (const auto& [xa, xc] : pairs) {
@@ -324,7 +325,8 @@ TEST(MeshMapper, InPatchRelaxationTightensCurvedFacesAndStaysOnTheSource) {
       haus[relax] = q.hausdorff_max;
       const builder::SurfaceIndex on(source.vertices, source.triangles);
       double off = 0;
-      for (std::uint32_t v : canonical.triangles) off = std::max(off, on.distance(&m.vertices[3 * v]));
+      for (std::uint32_t v : canonical.triangles)
+        off = std::max(off, on.distance(&m.vertices[3 * v]));
       EXPECT_LT(off, 1e-9 * source.bbox_diagonal());
     }
     std::printf("[ figures ] bracket Hausdorff without / with relaxation: %.3e / %.3e\n", haus[0],
@@ -718,4 +720,3 @@ TEST(InteriorSolve, IncrementalSolveReproducesAffineMapsExactly) {
     for (std::size_t i = 0; i < y.size(); ++i) ASSERT_NEAR(mapped[i], y[i], 1e-9) << steps;
   }
 }
-

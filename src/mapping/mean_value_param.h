@@ -17,8 +17,8 @@ namespace cadinterp::mapping {
 struct DiskMap {
   std::vector<std::uint32_t> vertices;  ///< per local vertex (Patch::local_vertices) its surface
                                         ///< vertex: a seam's vertices occur twice
-  std::vector<double> uv;                        ///< per local vertex, 2 values
-  std::vector<int> triangles;                    ///< local indices, 3 per patch triangle
+  std::vector<double> uv;               ///< per local vertex, 2 values
+  std::vector<int> triangles;           ///< local indices, 3 per patch triangle
 };
 
 /// `loop_uv` holds 2 values per patch.loop vertex (on the unit circle, counter-clockwise).

@@ -70,7 +70,8 @@ SurfacePoint disk_point(const DiskMap& sd, const DiskLocator& locator, const dou
   locator.locate(uv[0], uv[1], tri, w);
   SurfacePoint p;
   for (int k = 0; k < 3; ++k) {
-    p.v[k] = sd.vertices[static_cast<std::size_t>(sd.triangles[3 * std::size_t(tri) + std::size_t(k)])];
+    p.v[k] =
+        sd.vertices[static_cast<std::size_t>(sd.triangles[3 * std::size_t(tri) + std::size_t(k)])];
     p.w[k] = w[k];
   }
   if (triangle) *triangle = tri;
@@ -80,7 +81,8 @@ SurfacePoint disk_point(const DiskMap& sd, const DiskLocator& locator, const dou
 void position_of(const builder::Sample& s, const SurfacePoint& p, double* x) {
   for (int a = 0; a < 3; ++a) {
     x[a] = 0;
-    for (int k = 0; k < 3; ++k) x[a] += p.w[k] * s.vertices[3 * std::size_t(p.v[k]) + std::size_t(a)];
+    for (int k = 0; k < 3; ++k)
+      x[a] += p.w[k] * s.vertices[3 * std::size_t(p.v[k]) + std::size_t(a)];
   }
 }
 
@@ -136,7 +138,8 @@ void relax_in_patch(const builder::Sample& source, const builder::Sample& canoni
     if (!is_inner[l]) position_of(source, where[cd.vertices[l]], &X[3 * l]);
   std::vector<double> next(uv);
   for (int it = 0; it < iterations; ++it) {
-    for (std::size_t l : inner) position_of(source, disk_point(sd, locator, &uv[2 * l], &tri[l]), &X[3 * l]);
+    for (std::size_t l : inner)
+      position_of(source, disk_point(sd, locator, &uv[2 * l], &tri[l]), &X[3 * l]);
     for (std::size_t l : inner) {
       double target[3] = {0, 0, 0}, wsum = 0;
       for (const auto& [j, w] : nbr[l]) {
@@ -368,7 +371,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     // merge on both sides instead.
     std::set<Id> next_src_keys = src_keys, next_can_keys = can_keys;
     std::vector<std::vector<std::uint32_t>> next_src_traced = src_traced,
-                                             next_can_traced = can_traced;
+                                            next_can_traced = can_traced;
     if (e.in_source) {
       next_src_keys.insert(e.key);
       next_can_traced.push_back(std::move(chain));
@@ -462,16 +465,16 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     // An anchor where earlier splits met occurs several times on the loop, and several
     // anchors may share one vertex (a closed edge's vertex): try each vertex once.
     std::vector<int> seen;
-    order.erase(std::remove_if(order.begin(), order.end(),
-                               [&](const std::pair<double, std::size_t>& o) {
-                                 const int a = can_anchor_of_all[static_cast<std::size_t>(
-                                     c.anchors[o.second])];
-                                 if (std::find(seen.begin(), seen.end(), a) != seen.end())
-                                   return true;
-                                 seen.push_back(a);
-                                 return false;
-                               }),
-                order.end());
+    order.erase(
+        std::remove_if(order.begin(), order.end(),
+                       [&](const std::pair<double, std::size_t>& o) {
+                         const int a =
+                             can_anchor_of_all[static_cast<std::size_t>(c.anchors[o.second])];
+                         if (std::find(seen.begin(), seen.end(), a) != seen.end()) return true;
+                         seen.push_back(a);
+                         return false;
+                       }),
+        order.end());
     if (order.size() > 12) order.resize(12);
     bool split = false;
     for (const auto& [d0, i] : order) {
@@ -633,7 +636,8 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
         const std::vector<std::uint32_t> F(cd.triangles.begin(), cd.triangles.end());
         const builder::SurfaceIndex index(P, F);
         double d = 0;
-        for (std::uint32_t v : sd.vertices) d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
+        for (std::uint32_t v : sd.vertices)
+          d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
         return d;
       };
       if (gap(&relaxed) < gap(nullptr))

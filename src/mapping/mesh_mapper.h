@@ -21,10 +21,10 @@ namespace cadinterp::mapping {
 struct MapStats {
   std::size_t matched_points = 0;
   std::size_t patches = 0;
-  std::size_t rejected_paths = 0;  ///< one-sided edges dropped by the cyclic-order check
+  std::size_t rejected_paths = 0;   ///< one-sided edges dropped by the cyclic-order check
   std::size_t dropped_anchors = 0;  ///< matched points not at a mesh vertex on both sides
-  double min_scaled_jacobian = 0;  ///< of the mapped canonical tets
-  std::size_t inverted = 0;        ///< mapped tets inverted or flat (a failure when > 0)
+  double min_scaled_jacobian = 0;   ///< of the mapped canonical tets
+  std::size_t inverted = 0;         ///< mapped tets inverted or flat (a failure when > 0)
 };
 
 /// Tuning of one mapping (defaults are the builder's).

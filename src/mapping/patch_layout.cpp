@@ -1,8 +1,8 @@
 #include "mapping/patch_layout.h"
 
 #include <algorithm>
-#include <iterator>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <numeric>
 #include <unordered_map>
@@ -281,13 +281,12 @@ bool pair_patches(const std::vector<Patch>& source, const std::vector<Patch>& ca
             " anchors) has no source patch with the same matched control points in the same "
             "cyclic order";
       if (!source.empty())
-        why += " (nearest: source patch " + std::to_string(best) + ", " +
-               std::to_string(source[best].anchors.size()) + " anchors, " +
-               std::to_string(best_common) + " in common; " + std::to_string(only_c.size()) +
-               " only in the canonical's, " + std::to_string(only_s.size()) +
-               " only in the source's" +
-               (only_c.empty() && only_s.empty() ? ": the same anchors in another order" : "") +
-               ")";
+        why +=
+            " (nearest: source patch " + std::to_string(best) + ", " +
+            std::to_string(source[best].anchors.size()) + " anchors, " +
+            std::to_string(best_common) + " in common; " + std::to_string(only_c.size()) +
+            " only in the canonical's, " + std::to_string(only_s.size()) + " only in the source's" +
+            (only_c.empty() && only_s.empty() ? ": the same anchors in another order" : "") + ")";
       return false;
     }
     source_of[i] = it->second;

@@ -48,9 +48,9 @@ struct Patch {
 /// two sides lie in the same patch (the seam of a periodic B-rep face: a cylinder's lateral face
 /// between its two circles) is part of that patch's boundary, which then runs along it twice,
 /// once per side, with the seam's vertices duplicated in the patch's local numbering. Fails
-/// when a patch has a pinched boundary (after that cutting), a loop without anchor, or is not a disk: with `allow_holes`,
-/// a sphere with holes (Euler characteristic 2 - loops) is accepted and its loops other than
-/// the first go to `holes`, for the caller to cut (§6.2's subdivision).
+/// when a patch has a pinched boundary (after that cutting), a loop without anchor, or is not a
+/// disk: with `allow_holes`, a sphere with holes (Euler characteristic 2 - loops) is accepted and
+/// its loops other than the first go to `holes`, for the caller to cut (§6.2's subdivision).
 bool build_patches(const Surface& s, const std::vector<char>& cuts,
                    const std::vector<const double*>& anchor_positions, double tolerance,
                    bool allow_holes, std::vector<Patch>& out, std::string& why);

@@ -715,8 +715,8 @@ int cmd_eval(const std::vector<std::string>& args) {
            ws.get(), "eval");
 
   // Everything that reads the mesh happens before the next call with this workspace.
-  ExportMesh em = export_mesh_of(asset.get(), mesh, field_idx.data(),
-                                 static_cast<int>(field_idx.size()));
+  ExportMesh em =
+      export_mesh_of(asset.get(), mesh, field_idx.data(), static_cast<int>(field_idx.size()));
   em.generator = std::string("cadinterp ") + cadinterp_version();
   struct FieldSummary {
     std::string name;
@@ -1111,9 +1111,8 @@ int cmd_explore(const std::vector<std::string>& args) {
       if (quick) continue;
       basis.element_box(e, lo.data(), hi.data());
       for (std::size_t d = 0; d < uK; ++d) x[d] = 0.5 * (lo[d] + hi[d]);
-      const cadinterp_status es =
-          cadinterp_eval(ws.get(), x.data(), all_fields.data(),
-                         static_cast<int>(all_fields.size()), &mesh);
+      const cadinterp_status es = cadinterp_eval(ws.get(), x.data(), all_fields.data(),
+                                                 static_cast<int>(all_fields.size()), &mesh);
       if (es != CADINTERP_OK)
         throw RuntimeFailure("invalid asset " + path + ": element " + std::to_string(e) + ": " +
                              describe(es, cadinterp_workspace_error(ws.get())));
@@ -1132,10 +1131,10 @@ int cmd_explore(const std::vector<std::string>& args) {
                             "after `npm ci` in examples/explorer, or pass --web-root)"));
   for (const char* f : {"cadinterp.mjs", "cadinterp_wasm.mjs", "cadinterp_wasm.wasm"})
     if (!is_regular_file(wasm_dir + "/" + f))
-      throw RuntimeFailure(describe(
-          CADINTERP_E_IO, "the WebAssembly runtime is missing: " + wasm_dir + "/" + f +
-                              " not found (build it with scripts/build-wasm.sh, or pass "
-                              "--wasm-dir)"));
+      throw RuntimeFailure(
+          describe(CADINTERP_E_IO, "the WebAssembly runtime is missing: " + wasm_dir + "/" + f +
+                                       " not found (build it with scripts/build-wasm.sh, or pass "
+                                       "--wasm-dir)"));
 
   std::string name = path;
   if (const std::size_t slash = name.find_last_of('/'); slash != std::string::npos)

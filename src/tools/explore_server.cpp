@@ -72,7 +72,8 @@ int run_explore_server(const ExploreServerOptions& o,
                        void (*on_listening)(const std::string& url, void* user), void* user) {
   if (!o.asset_bytes) throw std::invalid_argument("run_explore_server: no asset bytes");
   httplib::Server server;
-  for (const MimeEntry& m : kMimeTypes) server.set_file_extension_and_mimetype_mapping(m.extension, m.type);
+  for (const MimeEntry& m : kMimeTypes)
+    server.set_file_extension_and_mimetype_mapping(m.extension, m.type);
   // Mount order matters: httplib tries mount points in registration order.
   if (!server.set_mount_point("/wasm", o.wasm_dir))
     throw std::runtime_error("the wasm directory " + o.wasm_dir + " is not a directory");
@@ -131,8 +132,9 @@ int run_explore_server(const ExploreServerOptions& o,
   }
   // bind_to_port also listen()s, so connections queue from here on even before accept starts.
   const std::string host = o.bind == "0.0.0.0" ? "127.0.0.1" : o.bind;
-  const std::string url = "http://" + (host.find(':') != std::string::npos ? "[" + host + "]" : host) +
-                          ":" + std::to_string(port) + "/";
+  const std::string url = "http://" +
+                          (host.find(':') != std::string::npos ? "[" + host + "]" : host) + ":" +
+                          std::to_string(port) + "/";
   std::atomic<bool> stopping{false};
   std::thread loop([&server, &stopping] {
     // listen_after_bind returns when stop() is called, or on an accept error: then wake the

@@ -11,10 +11,10 @@ namespace cadinterp::cli {
 
 struct ExploreServerOptions {
   std::string bind = "127.0.0.1";
-  int port = 8080;        ///< 0: any free port
-  std::string web_root;   ///< the built page (index.html, assets/)
-  std::string wasm_dir;   ///< cadinterp.mjs, cadinterp_wasm.mjs, cadinterp_wasm.wasm
-  std::string asset_name; ///< file name shown by the page
+  int port = 8080;         ///< 0: any free port
+  std::string web_root;    ///< the built page (index.html, assets/)
+  std::string wasm_dir;    ///< cadinterp.mjs, cadinterp_wasm.mjs, cadinterp_wasm.wasm
+  std::string asset_name;  ///< file name shown by the page
   /// The asset's bytes, served at /asset.cadi exactly as validated (not re-read from disk, so
   /// an asset rewritten while the server runs cannot reach the page unvalidated).
   const std::vector<std::uint8_t>* asset_bytes = nullptr;

@@ -43,7 +43,8 @@ double median_ms(int n, F&& call) {
   for (int i = 0; i < n; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     call(i);
-    t.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    t.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   std::nth_element(t.begin(), t.begin() + n / 2, t.end());
   return t[static_cast<std::size_t>(n / 2)];
@@ -58,7 +59,8 @@ int write(const char* path) {
 
 int time(const char* path, int n) {
   std::ifstream in(path, std::ios::binary);
-  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)),
+                                std::istreambuf_iterator<char>());
   if (bytes.empty()) {
     std::fprintf(stderr, "bench_native: cannot read %s\n", path);
     return 1;
@@ -73,7 +75,8 @@ int time(const char* path, int n) {
     check(cadinterp_workspace_create(asset, &ws), nullptr, "workspace");
     cadinterp_mesh m;
     check(cadinterp_eval(ws, kPoints[0], nullptr, 0, &m), ws, "eval");
-    first.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    first.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     cadinterp_workspace_destroy(ws);
     cadinterp_close(asset);
   }
@@ -93,16 +96,13 @@ int time(const char* path, int n) {
   const std::uint32_t nv = m.vertex_count;
   int fi = 0;
   check(cadinterp_find_field(asset, "temperature", &fi), nullptr, "find_field");
-  const double eval_ms = median_ms(n, [&](int i) {
-    check(cadinterp_eval(ws, kPoints[i % 8], nullptr, 0, &m), ws, "eval");
-  });
-  const double eval_field_ms = median_ms(n, [&](int i) {
-    check(cadinterp_eval(ws, kPoints[i % 8], &fi, 1, &m), ws, "eval");
-  });
+  const double eval_ms = median_ms(
+      n, [&](int i) { check(cadinterp_eval(ws, kPoints[i % 8], nullptr, 0, &m), ws, "eval"); });
+  const double eval_field_ms = median_ms(
+      n, [&](int i) { check(cadinterp_eval(ws, kPoints[i % 8], &fi, 1, &m), ws, "eval"); });
   cadinterp_mesh_grad g;
-  const double grad_ms = median_ms(n, [&](int i) {
-    check(cadinterp_grad(ws, kPoints[i % 8], nullptr, 0, &g), ws, "grad");
-  });
+  const double grad_ms = median_ms(
+      n, [&](int i) { check(cadinterp_grad(ws, kPoints[i % 8], nullptr, 0, &g), ws, "grad"); });
   std::vector<float> adj(3 * std::size_t(nv), 1.0f);
   double dx[3];
   const double vjp_ms = median_ms(n, [&](int i) {
@@ -113,9 +113,10 @@ int time(const char* path, int n) {
   const double props_ms = median_ms(n, [&](int i) {
     check(cadinterp_properties_eval(ws, kPoints[i % 8], 1.0, dir, &p, nullptr), ws, "properties");
   });
-  std::printf("{\"vertices\": %u, \"eval_ms\": %.4f, \"eval_field_ms\": %.4f, \"grad_ms\": %.4f, "
-              "\"vjp_ms\": %.4f, \"properties_ms\": %.4f, \"first_eval_ms\": %.4f}\n",
-              nv, eval_ms, eval_field_ms, grad_ms, vjp_ms, props_ms, first[2]);
+  std::printf(
+      "{\"vertices\": %u, \"eval_ms\": %.4f, \"eval_field_ms\": %.4f, \"grad_ms\": %.4f, "
+      "\"vjp_ms\": %.4f, \"properties_ms\": %.4f, \"first_eval_ms\": %.4f}\n",
+      nv, eval_ms, eval_field_ms, grad_ms, vjp_ms, props_ms, first[2]);
   cadinterp_workspace_destroy(ws);
   cadinterp_close(asset);
   return 0;

@@ -14,8 +14,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <list>
-#include <memory>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <new>
 #include <set>
@@ -44,8 +44,8 @@ struct Model::Impl {
   Settings settings;
   std::string identity;
   std::vector<cadinterp_parameter_desc> params;  ///< the varied parameters
-  std::vector<std::size_t> varied;                 ///< their indices in the model's list
-  std::vector<double> held;                        ///< every parameter; held ones at the centre
+  std::vector<std::size_t> varied;               ///< their indices in the model's list
+  std::vector<double> held;                      ///< every parameter; held ones at the centre
   cadinterp_host host{};
 
   /// The model's full parameter vector from the host's x.
@@ -136,8 +136,9 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
     else if (key == "vary")
       vary = value;
     else
-      throw std::invalid_argument("occt host: unknown option '" + key +
-                                  "' (mesh_size, order, levels, keep_surface, quality, angle, force, heat_flux, vary)");
+      throw std::invalid_argument(
+          "occt host: unknown option '" + key +
+          "' (mesh_size, order, levels, keep_surface, quality, angle, force, heat_flux, vary)");
     if ((key == "order" || key == "levels" || key == "keep_surface") &&
         value.find_first_not_of("0123456789") != std::string::npos)
       throw std::invalid_argument("occt host: option " + key + " must be an integer");
@@ -246,7 +247,8 @@ double volume_of(const TopoDS_Shape& s) {
 
 std::string failure_text(const Standard_Failure& f) {
   const char* msg = f.GetMessageString();
-  return std::string("OCCT ") + f.DynamicType()->Name() + (msg && *msg ? std::string(": ") + msg : "");
+  return std::string("OCCT ") + f.DynamicType()->Name() +
+         (msg && *msg ? std::string(": ") + msg : "");
 }
 
 }  // namespace
@@ -299,8 +301,7 @@ Evaluation Model::evaluate(const double* x) const {
             region.tags.push_back(face_tag(it.Value().label));
       std::sort(region.tags.begin(), region.tags.end());
       region.tags.erase(std::unique(region.tags.begin(), region.tags.end()), region.tags.end());
-      if (region.tags.empty())
-        throw Infeasible("region '" + r.name + "' lost all its faces");
+      if (region.tags.empty()) throw Infeasible("region '" + r.name + "' lost all its faces");
       e.regions.push_back(std::move(region));
     }
     t.references = since(t0);
@@ -441,9 +442,9 @@ cadinterp_status host_regenerate(void* user, const double* x, cadinterp_sample* 
     const auto ep = evaluation(static_cast<const Model*>(user), x, out, false);
     const Evaluation& e = *ep;
     if (!e.ok) return fail(out, e.message);
-    return cadinterp_sample_set_mesh(out, e.vertices.data(), e.vertices.size() / 3,
-                                     e.tets.data(), e.tets.size() / 4, e.triangles.data(),
-                                     e.triangle_tags.data(), e.triangle_tags.size());
+    return cadinterp_sample_set_mesh(out, e.vertices.data(), e.vertices.size() / 3, e.tets.data(),
+                                     e.tets.size() / 4, e.triangles.data(), e.triangle_tags.data(),
+                                     e.triangle_tags.size());
   } catch (const std::bad_alloc&) {
     return CADINTERP_E_OUT_OF_MEMORY;
   } catch (const std::exception& ex) {
@@ -463,9 +464,9 @@ cadinterp_status host_references(void* user, const double* x, cadinterp_sample* 
       if (s != CADINTERP_OK) return s;
     }
     for (const Path& p : e.paths) {
-      const cadinterp_status s = cadinterp_sample_add_path(
-          out, p.a.data(), p.a.size(), p.b.data(), p.b.size(), p.polyline.data(),
-          p.polyline.size() / 3);
+      const cadinterp_status s =
+          cadinterp_sample_add_path(out, p.a.data(), p.a.size(), p.b.data(), p.b.size(),
+                                    p.polyline.data(), p.polyline.size() / 3);
       if (s != CADINTERP_OK) return s;
     }
     for (const Region& r : e.regions) {

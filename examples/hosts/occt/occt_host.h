@@ -32,8 +32,7 @@ extern "C" {
  * @return the host (the same one for equal requests), valid until the library is unloaded.
  * Thread-safety: safe.
  */
-OCCT_HOST_EXPORT const cadinterp_host* cadinterp_host_entry(const char* model,
-                                                            const char* options,
+OCCT_HOST_EXPORT const cadinterp_host* cadinterp_host_entry(const char* model, const char* options,
                                                             const char** error);
 }
 

@@ -2,8 +2,8 @@
 // the shared library), and one small end-to-end `cadinterp build` through the shared library,
 // whose asset is then compared with the host's own regeneration.
 #include <dlfcn.h>
-#include <unistd.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>

@@ -316,7 +316,10 @@ TEST(OcctHost, LoadsActOnTheRightFaces) {
       if (std::count(jaw->tags.begin(), jaw->tags.end(), e.triangle_tags[t]))
         for (int k = 0; k < 3; ++k)
           for (int c = 0; c < 3; ++c)
-            u_jaw = std::max(u_jaw, std::abs(f.displacement[3 * e.triangles[3 * t + static_cast<std::size_t>(k)] + static_cast<std::size_t>(c)]));
+            u_jaw = std::max(
+                u_jaw,
+                std::abs(f.displacement[3 * e.triangles[3 * t + static_cast<std::size_t>(k)] +
+                                        static_cast<std::size_t>(c)]));
     ASSERT_GT(n, 0);
     EXPECT_LT(uy / n, 0);
     if (angle > 0) {

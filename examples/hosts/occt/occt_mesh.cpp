@@ -19,13 +19,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
+#include <chrono>
 #include <climits>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <array>
-#include <chrono>
-#include <cmath>
 #include <map>
 #include <mutex>
 #include <string>
@@ -83,8 +83,7 @@ class Welder {
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid_;
 };
 
-double orient(const double* v, std::uint32_t a, std::uint32_t b, std::uint32_t c,
-              std::uint32_t d) {
+double orient(const double* v, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
   double e[3][3];
   for (int k = 0; k < 3; ++k) {
     e[0][k] = v[3 * b + k] - v[3 * a + k];
@@ -425,7 +424,8 @@ bool tetrahedralize_surface(const std::vector<double>& pts, const std::vector<st
   const std::size_t ntri = out.trifaces.size() / 3;
   for (std::size_t i = 0; i < ntri; ++i) {
     std::array<std::uint32_t, 3> key;
-    for (std::size_t k = 0; k < 3; ++k) key[k] = static_cast<std::uint32_t>(out.trifaces[3 * i + k]);
+    for (std::size_t k = 0; k < 3; ++k)
+      key[k] = static_cast<std::uint32_t>(out.trifaces[3 * i + k]);
     std::sort(key.begin(), key.end());
     auto it = boundary.find(key);
     if (it == boundary.end()) continue;  // an interior face (none expected for one solid)
@@ -439,8 +439,8 @@ bool tetrahedralize_surface(const std::vector<double>& pts, const std::vector<st
     boundary.erase(it);
   }
   if (!boundary.empty()) {
-    why = "TetGen's boundary has " + std::to_string(boundary.size()) +
-          " faces without a B-rep face";
+    why =
+        "TetGen's boundary has " + std::to_string(boundary.size()) + " faces without a B-rep face";
     return false;
   }
   return true;
@@ -456,8 +456,7 @@ TetMeshData mesh_shape(const NamedShape& s, const MeshSettings& settings, MeshTi
   const double diag = std::sqrt(bb.SquareExtent());
   // Sag 1/10 of the element size and at most ~17 degrees per segment on curved faces (a
   // 21-gon keeps 98.5% of a circle's area).
-  BRepMesh_IncrementalMesh mesher(s.shape, 0.1 * settings.mesh_size, false, settings.angle,
-                                  false);
+  BRepMesh_IncrementalMesh mesher(s.shape, 0.1 * settings.mesh_size, false, settings.angle, false);
   if (!mesher.IsDone()) throw Infeasible("tessellation (BRepMesh) failed");
 
   Welder weld(1e-7 * diag);
@@ -501,7 +500,8 @@ TetMeshData mesh_shape(const NamedShape& s, const MeshSettings& settings, MeshTi
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
     for (std::size_t t = 0; t < tris.size(); t += 3)
       for (int k = 0; k < 3; ++k)
-        ++directed[{tris[t + static_cast<std::size_t>(k)], tris[t + static_cast<std::size_t>((k + 1) % 3)]}];
+        ++directed[{tris[t + static_cast<std::size_t>(k)],
+                    tris[t + static_cast<std::size_t>((k + 1) % 3)]}];
     for (const auto& e : directed)
       if (e.second != 1 || !directed.count({e.first.second, e.first.first}))
         throw Infeasible("the tessellation is not a closed oriented surface");

@@ -18,12 +18,12 @@ struct TetMeshData {
 };
 
 struct MeshSettings {
-  double mesh_size = 5.0;     ///< target tet edge length (mm)
+  double mesh_size = 5.0;  ///< target tet edge length (mm)
   /// TetGen -Y: keep the surface triangles (BRepMesh's, split to mesh_size by us); without it
   /// TetGen splits them itself, which can leave sliver tets on curved faces.
   bool keep_surface = true;
-  double quality = 1.414;     ///< TetGen -q: largest radius-edge ratio of a tet
-  double angle = 0.3;         ///< BRepMesh angular deflection (radians per segment)
+  double quality = 1.414;  ///< TetGen -q: largest radius-edge ratio of a tet
+  double angle = 0.3;      ///< BRepMesh angular deflection (radians per segment)
 };
 
 struct MeshTimes {

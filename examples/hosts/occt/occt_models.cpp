@@ -5,18 +5,18 @@
 // examples where the CAD system refuses some parameter combinations (§4.2).
 #include "occt_models.h"
 
+#include <BRepAdaptor_Curve.hxx>
 #include <BRepAlgoAPI_Cut.hxx>
 #include <BRepAlgoAPI_Fuse.hxx>
-#include <BRepFilletAPI_MakeFillet.hxx>
-#include <BRepAdaptor_Curve.hxx>
 #include <BRepBuilderAPI_MakeEdge.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
 #include <BRepBuilderAPI_MakeWire.hxx>
+#include <BRepFilletAPI_MakeFillet.hxx>
 #include <BRepPrimAPI_MakeBox.hxx>
+#include <BRepPrimAPI_MakeCylinder.hxx>
 #include <BRepPrimAPI_MakePrism.hxx>
 #include <GC_MakeArcOfCircle.hxx>
 #include <GC_MakeSegment.hxx>
-#include <BRepPrimAPI_MakeCylinder.hxx>
 #include <TopExp_Explorer.hxx>
 #include <TopTools_ListOfShape.hxx>
 #include <TopoDS.hxx>
@@ -72,9 +72,10 @@ NamedShape obround(int feature, const std::string& prefix, const gp_Pnt& a, cons
   out.shape = prism.Shape();
   const std::string f = "f" + std::to_string(feature) + ":" + prefix + ".";
   // The wire may rebuild edges to share vertices: find each profile edge by its midpoint.
-  const std::pair<gp_Pnt, const char*> roles[] = {
-      {a1.Translated(0.5 * along), "side0"}, {b.Translated(unit), "end1"},
-      {a0.Translated(0.5 * along), "side1"}, {a.Translated(-unit), "end0"}};
+  const std::pair<gp_Pnt, const char*> roles[] = {{a1.Translated(0.5 * along), "side0"},
+                                                  {b.Translated(unit), "end1"},
+                                                  {a0.Translated(0.5 * along), "side1"},
+                                                  {a.Translated(-unit), "end0"}};
   for (TopExp_Explorer ex(face.Face(), TopAbs_EDGE); ex.More(); ex.Next()) {
     BRepAdaptor_Curve c(TopoDS::Edge(ex.Current()));
     const gp_Pnt mid = c.Value(0.5 * (c.FirstParameter() + c.LastParameter()));
@@ -124,8 +125,7 @@ NamedShape cut(int feature, const NamedShape& a, const std::vector<NamedShape>& 
 NamedShape fillet(int feature, const NamedShape& s, const std::vector<TopoDS_Shape>& edges,
                   double radius, const std::string& what) {
   if (edges.empty())
-    throw Infeasible("feature " + std::to_string(feature) + " (" + what +
-                     "): no edge to fillet");
+    throw Infeasible("feature " + std::to_string(feature) + " (" + what + "): no edge to fillet");
   BRepFilletAPI_MakeFillet op(s.shape);
   for (const TopoDS_Shape& e : edges) op.Add(radius, TopoDS::Edge(e));
   op.Build();
@@ -182,8 +182,7 @@ NamedShape hub(const double* x) {
     throw Infeasible("bolt hole breaks into the bore: " + fmt(r_in - kBore) +
                      " mm of wall left, 2.5 mm needed");
   NamedShape s = cylinder(1, "drum", gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1), kHubR, kHubH);
-  s = cut(2, s, {cylinder(2, "cavity", gp_Pnt(0, 0, kFlange), gp_Dir(0, 0, 1), kHubR - t,
-                          kHubH)});
+  s = cut(2, s, {cylinder(2, "cavity", gp_Pnt(0, 0, kFlange), gp_Dir(0, 0, 1), kHubR - t, kHubH)});
   s = cut(3, s, {cylinder(3, "bore", gp_Pnt(0, 0, -1), gp_Dir(0, 0, 1), kBore, kFlange + 2)});
   std::vector<NamedShape> holes;
   for (int k = 0; k < 5; ++k) {
@@ -237,8 +236,9 @@ NamedShape press(const double* x) {
   const double xc = s + 0.6 * (W - s);
   // The bore starts 10 mm below the arm (the ram guide's counterbore side), so a bore that
   // overlaps the fillet cuts through it.
-  return cut(4, b, {cylinder(4, "ram", gp_Pnt(xc, H - kPressArm - 10, kPressT / 2),
-                             gp_Dir(0, 1, 0), d / 2, kPressArm + 11)});
+  return cut(4, b,
+             {cylinder(4, "ram", gp_Pnt(xc, H - kPressArm - 10, kPressT / 2), gp_Dir(0, 1, 0),
+                       d / 2, kPressArm + 11)});
 }
 
 LoadCase press_loads(const double*, const Settings& st) {
@@ -250,10 +250,11 @@ LoadCase press_loads(const double*, const Settings& st) {
   return c;
 }
 
-// ---- camera mount ---------------------------------------------------------------------------------
-// An L bracket of thickness t: a base plate a x b with two punched mounting holes, an upright of
-// height h with the punched camera-screw hole, the inner bend filleted (rb). A large screw hole
-// on a short upright reaches into the bend fillet and changes the topology there.
+// ---- camera mount
+// --------------------------------------------------------------------------------- An L bracket of
+// thickness t: a base plate a x b with two punched mounting holes, an upright of height h with the
+// punched camera-screw hole, the inner bend filleted (rb). A large screw hole on a short upright
+// reaches into the bend fillet and changes the topology there.
 NamedShape mount(const double* x) {
   const double a = x[0], h = x[1], b = x[2], t = x[3], rb = x[4], d = x[5];
   NamedShape base = box(1, "base", 0, 0, 0, a, b, t);

@@ -121,8 +121,7 @@ void add_name(FaceNameMap& map, const TopoDS_Shape& face, const std::string& lab
 
 }  // namespace
 
-NamedShape name_by_geometry(const TopoDS_Shape& primitive, int feature,
-                            const std::string& prefix) {
+NamedShape name_by_geometry(const TopoDS_Shape& primitive, int feature, const std::string& prefix) {
   Bnd_Box box;
   BRepBndLib::AddOptimal(primitive, box, false, false);
   double lo[3], hi[3];
@@ -150,8 +149,7 @@ NamedShape name_by_geometry(const TopoDS_Shape& primitive, int feature,
   for (auto& g : groups) {
     sort_geometric(g.second, face_key);
     for (std::size_t k = 0; k < g.second.size(); ++k) {
-      const std::string label =
-          g.second.size() == 1 ? g.first : g.first + "#" + std::to_string(k);
+      const std::string label = g.second.size() == 1 ? g.first : g.first + "#" + std::to_string(k);
       add_name(out.faces, g.second[k], label, {label});
     }
   }
@@ -197,8 +195,8 @@ NamedShape propagate(BRepBuilderAPI_MakeShape& op, int feature,
             gens.push_back(g);
         sort_geometric(gens, face_key);
         for (std::size_t k = 0; k < gens.size(); ++k) {
-          const std::string label = f + "blend(" + it.Value() + ")" +
-                                    (gens.size() == 1 ? "" : "#" + std::to_string(k));
+          const std::string label =
+              f + "blend(" + it.Value() + ")" + (gens.size() == 1 ? "" : "#" + std::to_string(k));
           add_name(out.faces, gens[k], label, {label});
         }
       }

@@ -9,10 +9,10 @@
 // in which OCCT enumerates sub-shapes, and an entity far from a topology change keeps its name.
 #pragma once
 
+#include <BRepBuilderAPI_MakeShape.hxx>
+#include <NCollection_DataMap.hxx>
 #include <TopTools_ShapeMapHasher.hxx>
 #include <TopoDS_Shape.hxx>
-#include <NCollection_DataMap.hxx>
-#include <BRepBuilderAPI_MakeShape.hxx>
 
 #include <cstdint>
 #include <string>

@@ -31,8 +31,7 @@ std::vector<double> edge_node_parameters(const TopoDS_Edge& e, const TopTools_Li
     TopLoc_Location loc;
     const Handle(Poly_Triangulation) tri = BRep_Tool::Triangulation(TopoDS::Face(f), loc);
     if (tri.IsNull()) continue;
-    const Handle(Poly_PolygonOnTriangulation) poly =
-        BRep_Tool::PolygonOnTriangulation(e, tri, loc);
+    const Handle(Poly_PolygonOnTriangulation) poly = BRep_Tool::PolygonOnTriangulation(e, tri, loc);
     if (poly.IsNull() || !poly->HasParameters()) continue;
     for (int i = 1; i <= poly->NbNodes(); ++i) out.push_back(poly->Parameter(i));
     break;
@@ -95,8 +94,8 @@ void add_references(const NamedShape& s, int levels, std::vector<ControlPoint>& 
     const double t_lo = flip ? p2 : p1, t_hi = flip ? p1 : p2;
     const std::vector<std::int64_t>& lo_id = vertex_id(flip ? v2 : v1);
     const std::vector<std::int64_t>& hi_id = vertex_id(flip ? v1 : v2);
-    std::vector<std::int64_t> base{1, id_of(edge_names, e), std::min(id1, id2),
-                                   std::max(id1, id2), -1};
+    std::vector<std::int64_t> base{1, id_of(edge_names, e), std::min(id1, id2), std::max(id1, id2),
+                                   -1};
     auto at = [&](double u, double* out) {
       const gp_Pnt p = c.Value(t_lo + u * (t_hi - t_lo));
       out[0] = p.X();

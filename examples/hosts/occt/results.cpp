@@ -205,7 +205,8 @@ int main(int argc, char** argv) {
         const cadinterp::occt::Evaluation e = model->evaluate(x.data());
         if (!e.ok) continue;
         double v = 0;
-        for (std::uint32_t t = 0; t < m.tet_count; ++t) v += tet_volume(m.positions, m.tets + 4 * t);
+        for (std::uint32_t t = 0; t < m.tet_count; ++t)
+          v += tet_volume(m.positions, m.tets + 4 * t);
         row.volume_max = std::max(row.volume_max, std::abs(v / e.exact_volume - 1));
         row.host_volume_max =
             std::max(row.host_volume_max, std::abs(e.mesh_volume / e.exact_volume - 1));
@@ -221,18 +222,21 @@ int main(int argc, char** argv) {
 
   std::printf("OCCT host results (%s meshes; paper figures in brackets)\n\n",
               full ? "full-size" : "small");
-  std::printf("Table 1  model        K (paper)  depth  samples (paper)  infeasible  elements (refused)"
-              "  mean tets (paper)  stored meshes (paper)  host s/sample\n");
+  std::printf(
+      "Table 1  model        K (paper)  depth  samples (paper)  infeasible  elements (refused)"
+      "  mean tets (paper)  stored meshes (paper)  host s/sample\n");
   for (const Row& r : rows) {
     const PaperRow* p = paper(r.model);
-    std::printf("         %-11s  %d (%d)      %d      %4d (%d)        %4d        %4d (%d)"
-                "          %8.0f (%s)     %5d (%d)             %.3f\n",
-                r.model.c_str(), r.K, p ? p->K : 0, r.depth, r.samples, p ? p->samples : 0,
-                r.infeasible, r.elements, r.bad_elements, r.mesh_tets, p ? p->mesh : "-",
-                r.stored, p ? p->storage : 0, r.per_sample);
+    std::printf(
+        "         %-11s  %d (%d)      %d      %4d (%d)        %4d        %4d (%d)"
+        "          %8.0f (%s)     %5d (%d)             %.3f\n",
+        r.model.c_str(), r.K, p ? p->K : 0, r.depth, r.samples, p ? p->samples : 0, r.infeasible,
+        r.elements, r.bad_elements, r.mesh_tets, p ? p->mesh : "-", r.stored, p ? p->storage : 0,
+        r.per_sample);
   }
-  std::printf("\nStage times per regeneration (s): model  regenerate  tessellate  tetgen  "
-              "references  physics  (regenerations, failed)\n");
+  std::printf(
+      "\nStage times per regeneration (s): model  regenerate  tessellate  tetgen  "
+      "references  physics  (regenerations, failed)\n");
   for (const Row& r : rows) {
     const double n = std::max(1, r.stages.regenerations - r.stages.failures);
     std::printf("         %-11s  %.4f  %.4f  %.4f  %.4f  %.4f  (%d, %d)\n", r.model.c_str(),
@@ -240,22 +244,25 @@ int main(int argc, char** argv) {
                 r.stages.references / n, r.stages.physics / n, r.stages.regenerations,
                 r.stages.failures);
   }
-  std::printf("\nTable 2  model    points  geometry max (paper)  geometry 99%% (paper)  "
-              "FEM max (paper)   FEM 99%% (paper)\n");
+  std::printf(
+      "\nTable 2  model    points  geometry max (paper)  geometry 99%% (paper)  "
+      "FEM max (paper)   FEM 99%% (paper)\n");
   for (const Row& r : rows) {
     const PaperRow* p = paper(r.model);
     if (!r.accuracy) {
       std::printf("         %-11s  n/a: %s\n", r.model.c_str(), r.note.c_str());
       continue;
     }
-    std::printf("         %-11s  %d (%d infeasible)  %.4f (%.4f)  %.4f (%.4f)  %.4f (%.4f)  "
-                "%.4f (%.4f)\n",
-                r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.geometry_max,
-                p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0, r.acc.field_max,
-                p ? p->fmax : 0, r.acc.field_p99, p ? p->f99 : 0);
+    std::printf(
+        "         %-11s  %d (%d infeasible)  %.4f (%.4f)  %.4f (%.4f)  %.4f (%.4f)  "
+        "%.4f (%.4f)\n",
+        r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.geometry_max, p ? p->gmax : 0,
+        r.acc.geometry_p99, p ? p->g99 : 0, r.acc.field_max, p ? p->fmax : 0, r.acc.field_p99,
+        p ? p->f99 : 0);
   }
-  std::printf("\nVolume   model    points  max |V_interp / V_exact - 1|  max |V_host_mesh / "
-              "V_exact - 1|  (V_exact: BRepGProp)\n");
+  std::printf(
+      "\nVolume   model    points  max |V_interp / V_exact - 1|  max |V_host_mesh / "
+      "V_exact - 1|  (V_exact: BRepGProp)\n");
   for (const Row& r : rows) {
     if (r.volume_points == 0) {
       std::printf("         %-11s  n/a\n", r.model.c_str());
