@@ -10,6 +10,7 @@
 //   positions v...                   #V*3 expected positions
 //   dpositions v...                  K lines: d positions / d x_k
 //   field0 v... / dfield0 v...       field 0 and its K derivative arrays
+//   unit I U                         field I's unit is U ("-": none, cadinterp_field_unit gives "")
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -103,6 +104,17 @@ void run_case(const fs::path& dir) {
                       cadinterp_open_error() + "), expected " + s);
       if (got == CADINTERP_OK && cadinterp_workspace_create(asset, &ws) != CADINTERP_OK)
         throw Failure("workspace");
+    } else if (key == "unit") {
+      int i = -1;
+      std::string want;
+      in >> i >> want;
+      if (want == "-") want.clear();
+      const char* got = nullptr;
+      if (cadinterp_field_unit(asset, i, &got) != CADINTERP_OK || !got)
+        throw Failure("cadinterp_field_unit " + std::to_string(i) + " failed");
+      if (want != got)
+        throw Failure("field " + std::to_string(i) + " unit '" + got + "', expected '" + want +
+                      "'");
     } else if (key == "tolerance") {
       in >> tol;
     } else if (key == "grad_tolerance") {

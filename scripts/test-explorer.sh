@@ -44,15 +44,24 @@ fi
 if [ ! -f "$build/build.ninja" ] && [ ! -f "$build/Makefile" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCADINTERP_BUILD_BENCHMARKS=OFF
 fi
-cmake --build "$build" --target cadinterp_cli cadinterp_explorer_page -j "$jobs"
+targets="cadinterp_cli cadinterp_explorer_page"
+# The OCCT wrench test (test/loads.test.mjs) needs the OpenCASCADE host, when the build has it.
+if grep -q '^build cadinterp_host_occt:' "$build/build.ninja" 2>/dev/null; then
+  targets="$targets cadinterp_host_occt"
+fi
+cmake --build "$build" --target $targets -j "$jobs"
 
 work=$root/$build/explorer-test
 mkdir -p "$work"
 export CADINTERP_CLI=$root/$build/src/tools/cadinterp
 export EXPLORER_WORK_DIR=$work
 export EXPLORER_SCREENSHOT_DIR=$work/screenshots
+occt_so=$(find "$root/$build/examples/hosts/occt" -maxdepth 1 -name 'libcadinterp_host_occt.so' 2>/dev/null | head -1)
+export EXPLORER_OCCT_HOST=${occt_so:-}
+[ -n "$EXPLORER_OCCT_HOST" ] || echo "test-explorer: no OCCT host in $build: the wrench load-arrow tests are skipped"
 rm -f "$work"/*.cadi  # assets are rebuilt with this cadinterp
-node --test --test-reporter=spec $explorer/test/surface.test.mjs $explorer/test/e2e.test.mjs
+node --test --test-reporter=spec $explorer/test/surface.test.mjs $explorer/test/e2e.test.mjs \
+  $explorer/test/loads.test.mjs
 echo "screenshots: $EXPLORER_SCREENSHOT_DIR"
 
 if [ "$fps" = 1 ]; then

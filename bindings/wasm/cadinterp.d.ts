@@ -25,7 +25,14 @@ export interface Library {
 export type Point = ArrayLike<number>;
 
 export interface Parameter { name: string; unit: string; lower: number; upper: number }
-export interface FieldInfo { name: string; location: 'vertex' | 'tet'; components: number; maxAbsError: number }
+export interface FieldInfo {
+  name: string;
+  location: 'vertex' | 'tet';
+  components: number;
+  maxAbsError: number;
+  /** The values' unit as the builder's host gave it ("MPa", "mm", ...); "" when unknown (format 1.0 assets). */
+  unit: string;
+}
 export interface Region { name: string; kind: string; faceTags: Int32Array }
 export interface InfeasiblePoint { x: Float64Array; message: string }
 export interface Provenance { builderVersion: string; host: string; options: string }

@@ -244,11 +244,14 @@ class Asset {
           components: m.HEAP32[(info >> 2) + 2],
           maxAbsError: m.HEAPF64[(info + 16) >> 3],
         };
+        // A separate call (cadinterp_field_info's layout is ABI): "" when the asset has none.
+        this.#check(m._cadinterp_field_unit(asset, i, info), null);
+        f.unit = str(m.HEAPU32[info >> 2]);
         fields.push(f);
         if (!this.#fieldIndex.has(f.name)) this.#fieldIndex.set(f.name, i);
       }
       this.#fieldInfo = fields;
-      /** [{ name, location: 'vertex'|'tet', components, maxAbsError }] */
+      /** [{ name, location: 'vertex'|'tet', components, maxAbsError, unit }] */
       this.fields = fields;
       const regions = [];
       const nr = m._cadinterp_region_count(asset);

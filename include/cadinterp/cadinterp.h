@@ -142,6 +142,18 @@ CADINTERP_API int cadinterp_field_count(const cadinterp_asset* asset);
 /** Field i (0 <= i < field count). */
 CADINTERP_API cadinterp_status cadinterp_field(const cadinterp_asset* asset, int i,
                                                cadinterp_field_info* out);
+/**
+ * The unit of field i as free text ("MPa", "mm", "K", ... as the builder's host gave it), or ""
+ * when the asset has none for it (every format 1.0 asset). A separate call rather than a member
+ * of cadinterp_field_info, whose layout is part of the ABI.
+ * @param[in]  asset  the asset
+ * @param[in]  i      0 <= i < cadinterp_field_count(asset)
+ * @param[out] unit   NUL-terminated UTF-8 owned by the asset, valid until cadinterp_close
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument or i out of range
+ * (`*unit` untouched). Thread-safety: safe (the asset is immutable).
+ */
+CADINTERP_API cadinterp_status cadinterp_field_unit(const cadinterp_asset* asset, int i,
+                                                    const char** unit);
 /** Index of the field called `name`, CADINTERP_E_NOT_FOUND if none. */
 CADINTERP_API cadinterp_status cadinterp_find_field(const cadinterp_asset* asset, const char* name,
                                                     int* index);

@@ -104,6 +104,18 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* samp
                                                           int components, const double* values,
                                                           size_t count);
 
+/**
+ * Sets the unit of the field called `name`, added before by cadinterp_sample_add_field: free
+ * text such as "MPa", "mm", "K" (UTF-8, copied; "" clears it). The asset stores it per field
+ * (format 1.1) and the runtime returns it from cadinterp_field_unit. A separate call so that
+ * cadinterp_sample_add_field and the hosts calling it stay as they are; the build takes the
+ * units of the sample it takes the field list from.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument or an empty name;
+ * CADINTERP_E_NOT_FOUND when the sample has no field of that name.
+ */
+CADINTERP_API cadinterp_status cadinterp_sample_set_field_unit(cadinterp_sample* sample,
+                                                               const char* name, const char* unit);
+
 /** Sets the message recorded with an infeasible sample (why the host failed). Copies it. */
 CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* sample,
                                                             const char* message);

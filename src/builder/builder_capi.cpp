@@ -149,6 +149,19 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* s, c
   });
 }
 
+CADINTERP_API cadinterp_status cadinterp_sample_set_field_unit(cadinterp_sample* s,
+                                                               const char* name, const char* unit) {
+  return guard(nullptr, [&] {
+    if (!s || !name || !*name || !unit) return CADINTERP_E_INVALID_ARGUMENT;
+    for (auto& f : s->sample.fields)
+      if (f.name == name) {
+        f.unit = unit;
+        return CADINTERP_OK;
+      }
+    return CADINTERP_E_NOT_FOUND;
+  });
+}
+
 CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
                                                             const char* message) {
   return guard(nullptr, [&] {

@@ -82,7 +82,9 @@ std::string validate(const Sample& s) {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x53494443;  // "CDIS"
-constexpr std::uint32_t kVersion = 1;
+// 2 appended the field units after the fields; version 1 bytes (stores written before) still
+// read, with no units.
+constexpr std::uint32_t kVersion = 2;
 
 void put_str(std::vector<std::uint8_t>& out, const std::string& s) {
   put_u64(out, s.size());
@@ -168,6 +170,7 @@ std::vector<std::uint8_t> serialize(const Sample& s) {
     put_u32(out, static_cast<std::uint32_t>(f.components));
     put_pod(out, f.values);
   }
+  for (const Field& f : s.fields) put_str(out, f.unit);  // version 2
   return out;
 }
 
@@ -175,7 +178,9 @@ Sample deserialize(const std::uint8_t* bytes, std::size_t size) {
   try {
     Reader r(bytes, size);
     if (r.u32() != kMagic) throw std::runtime_error("sample bytes: bad magic");
-    if (r.u32() != kVersion) throw std::runtime_error("sample bytes: unknown version");
+    const std::uint32_t version = r.u32();
+    if (version != 1 && version != kVersion)
+      throw std::runtime_error("sample bytes: unknown version");
     Sample s;
     s.feasible = r.u32() != 0;
     s.message = r.str();
@@ -207,6 +212,8 @@ Sample deserialize(const std::uint8_t* bytes, std::size_t size) {
       f.components = static_cast<int>(r.u32());
       f.values = r.pod<double>();
     }
+    if (version >= 2)
+      for (Field& f : s.fields) f.unit = r.str();
     if (!r.done()) throw std::runtime_error("sample bytes: trailing data");
     return s;
   } catch (const format::CodecError&) {

@@ -29,6 +29,7 @@ struct Field {
   std::uint8_t location = 0;  ///< 0 per vertex, 1 per tet (cadinterp_field_location)
   int components = 1;
   std::vector<double> values;  ///< #V (or #T) by components
+  std::string unit;            ///< free text, "" when the host gave none
 };
 
 struct Sample {

@@ -11,7 +11,8 @@
 //   0  u8[8]  magic 89 43 41 44 49 0D 0A 1A  ("\x89CADI\r\n\x1a": catches text-mode and 7-bit
 //             transfers like PNG's signature)
 //   8  u16    format major (readers reject any other major)
-//   10 u16    format minor (readers reject a newer minor)
+//   10 u16    format minor (readers reject a newer minor; writers stamp the lowest minor whose
+//             schema holds what the file uses: 1.1 only with field units)
 //   12 u32    header size (exactly 48 in 1.0)
 //   16 u64    file size in bytes (a shorter file is truncated, a longer one corrupt)
 //   24 u64    index offset (exactly 48 in 1.0: the index follows the header)
@@ -28,7 +29,8 @@ namespace cadinterp::format {
 
 inline constexpr std::uint8_t kMagic[8] = {0x89, 'C', 'A', 'D', 'I', '\r', '\n', 0x1A};
 inline constexpr std::uint16_t kFormatMajor = 1;
-inline constexpr std::uint16_t kFormatMinor = 0;
+/// The newest minor this code reads and writes; 1.1 appended FieldDesc.unit (SPEC.md).
+inline constexpr std::uint16_t kFormatMinor = 1;
 inline constexpr std::size_t kHeaderSize = 48;
 
 /// Outcome of reading or writing an asset. The values equal the C ABI's cadinterp_status values

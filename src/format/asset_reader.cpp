@@ -318,7 +318,23 @@ void AssetReader::open(const ReadLimits& limits) {
     text(prm->unit(), "parameter unit");
   }
   if (const auto* fields = index_->fields())
-    for (const fb::FieldDesc* f : *fields) text(f->name(), "field name");
+    for (const fb::FieldDesc* f : *fields) {
+      text(f->name(), "field name");
+      text(f->unit(), "field unit");  // format 1.1
+    }
+  // The minor is the lowest one whose schema holds the content (SPEC.md, "Compatibility
+  // rules"): 1 exactly when a field has a unit. Checked both ways, so that the minor's bits are
+  // covered like every other byte (a flipped minor is reported, not read as another version).
+  {
+    bool any_unit = false;
+    if (const auto* fields = index_->fields())
+      for (const fb::FieldDesc* f : *fields)
+        any_unit = any_unit || (f->unit() && f->unit()->size());
+    if (minor_ != (any_unit ? 1 : 0))
+      corrupt("format minor " + std::to_string(minor_) +
+              " does not match the content (field units " +
+              (any_unit ? "present: 1.1" : "absent: 1.0") + ")");
+  }
   if (const auto* regions = index_->regions())
     for (const fb::BoundaryRegion* r : *regions) {
       text(r->name(), "region name");

@@ -213,7 +213,8 @@ TEST(Asset, EachInvalidFileHasItsNamedStatus) {
       {"empty", Status::BadMagic, [](auto& b, auto) { b.clear(); }},
       {"bad magic", Status::BadMagic, [](auto& b, auto) { b[1] = 'X'; }},
       {"newer major", Status::UnsupportedVersion, [](auto& b, auto) { set_le(b, 8, 2, 2); }},
-      {"newer minor", Status::UnsupportedVersion, [](auto& b, auto) { set_le(b, 10, 1, 2); }},
+      {"newer minor", Status::UnsupportedVersion,
+       [](auto& b, auto) { set_le(b, 10, kFormatMinor + 1u, 2); }},
       {"header only", Status::Truncated, [](auto& b, auto) { b.resize(20); }},
       {"truncated", Status::Truncated, [](auto& b, auto) { b.pop_back(); }},
       {"trailing byte", Status::CorruptIndex, [](auto& b, auto) { b.push_back(0); }},
@@ -509,6 +510,38 @@ TEST(Asset, ParallelDecodeOfALargeElement) {
       EXPECT_EQ(s, Status::ChecksumMismatch);
     }
   }
+}
+
+// Format 1.1: field units round-trip; a file stamps minor 1 only when it holds a unit, so an
+// asset without units keeps the bytes (and the 1.0 stamp) a 1.0 writer gave it.
+TEST(Asset, FieldUnitsRoundTripAndSetTheMinor) {
+  const std::vector<std::uint8_t> plain = small_file();
+  EXPECT_EQ(plain[10] | plain[11] << 8, 0);
+  AssetContent c = small_asset().content;
+  ASSERT_EQ(c.fields.size(), 2u);
+  for (FieldInfo& f : c.fields) f.unit = "";
+  EXPECT_EQ(write_asset(c, {}), write_asset(small_asset().content, {}));  // "" == absent
+  c.fields[1].unit = "MPa";
+  const std::vector<std::uint8_t> with = write_asset(c, {});
+  EXPECT_EQ(with[10] | with[11] << 8, 1);
+  const auto r = AssetReader::open_memory(with.data(), with.size(), false);
+  EXPECT_EQ(r->format_minor(), 1);
+  const auto* fields = r->index().fields();
+  ASSERT_TRUE(fields && fields->size() == 2);
+  EXPECT_EQ(fields->Get(0)->unit(), nullptr);
+  ASSERT_NE(fields->Get(1)->unit(), nullptr);
+  EXPECT_EQ(fields->Get(1)->unit()->str(), "MPa");
+  EXPECT_EQ(open_and_decode(with), Status::Ok);
+  // A NUL inside a unit (the C ABI hands it out NUL-terminated) is refused by both sides.
+  c.fields[1].unit = std::string("M\0Pa", 4);
+  EXPECT_THROW(write_asset(c, {}), FormatError);
+  std::vector<std::uint8_t> b = with;
+  const std::string needle = "MPa";
+  auto at = std::search(b.begin() + kHeaderSize, b.end(), needle.begin(), needle.end());
+  ASSERT_NE(at, b.end());
+  at[1] = 0;
+  rehash(b);
+  EXPECT_EQ(open_and_decode(b), Status::CorruptIndex);
 }
 
 TEST(Asset, WriterRejectsInconsistentContent) {

@@ -72,6 +72,8 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
   std::size_t field_values_per_vertex = 0, field_values_per_tet = 0;
   for (const FieldInfo& f : c.fields) {
     if (f.name.empty() || f.components < 1 || f.components > kMaxComps) bad("field descriptor");
+    if (f.name.find('\0') != std::string::npos || f.unit.find('\0') != std::string::npos)
+      bad("field name or unit contains a NUL");
     (f.location == FieldLocation::Vertex ? field_values_per_vertex : field_values_per_tet) +=
         static_cast<std::size_t>(f.components);
   }
@@ -155,10 +157,15 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
     params.push_back(
         fb::CreateParameterDirect(fbb, pi.name.c_str(), pi.unit.c_str(), pi.lower, pi.upper));
   std::vector<flatbuffers::Offset<fb::FieldDesc>> fields;
-  for (const FieldInfo& f : c.fields)
+  bool any_unit = false;
+  for (const FieldInfo& f : c.fields) {
+    // Absent, not empty, without a unit: such a file is byte for byte a format 1.0 file.
+    any_unit = any_unit || !f.unit.empty();
     fields.push_back(fb::CreateFieldDescDirect(
         fbb, f.name.c_str(), static_cast<fb::FieldLocation>(f.location),
-        static_cast<std::uint8_t>(f.components), static_cast<float>(o.field_max_abs_error)));
+        static_cast<std::uint8_t>(f.components), static_cast<float>(o.field_max_abs_error),
+        f.unit.empty() ? nullptr : f.unit.c_str()));
+  }
   std::vector<flatbuffers::Offset<fb::BoundaryRegion>> regions;
   for (const RegionInfo& r : c.regions)
     regions.push_back(
@@ -191,7 +198,9 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
     std::memcpy(file.data() + kHeaderSize + fbb.GetSize(), section.data(), section.size());
   std::memcpy(file.data(), kMagic, sizeof kMagic);
   put_le(file, 8, kFormatMajor, 2);
-  put_le(file, 10, kFormatMinor, 2);
+  // The lowest minor whose schema holds what this file uses (SPEC.md, "Compatibility rules"):
+  // 1.0 readers keep opening assets without field units.
+  put_le(file, 10, any_unit ? kFormatMinor : 0, 2);
   put_le(file, 12, kHeaderSize, 4);
   put_le(file, 16, file.size(), 8);
   put_le(file, 24, index_offset, 8);

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/compiled_basis.h"
@@ -19,9 +20,19 @@ struct ParameterInfo {
 enum class FieldLocation : std::uint8_t { Vertex = 0, Tet = 1 };
 
 struct FieldInfo {
+  // Constructors rather than an aggregate: callers that brace-initialize the first three members
+  // (the builder) keep compiling without -Wmissing-field-initializers now that `unit` follows.
+  FieldInfo() = default;
+  FieldInfo(std::string name_, FieldLocation location_, int components_, std::string unit_ = {})
+      : name(std::move(name_)),
+        location(location_),
+        components(components_),
+        unit(std::move(unit_)) {}
   std::string name;
   FieldLocation location = FieldLocation::Vertex;
   int components = 1;  ///< 1..kMaxComps
+  /// Free text ("MPa", "mm", "K"), "" when unknown. Any non-empty unit makes the file format 1.1.
+  std::string unit;
 };
 
 struct RegionInfo {

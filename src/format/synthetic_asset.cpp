@@ -170,8 +170,8 @@ SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec) {
   c.basis = out.basis.get();
   for (int d = 0; d < spec.K; ++d) c.parameters.push_back({kNames[d], kUnits[d], 0.0, 1.0});
   if (spec.fields) {
-    c.fields.push_back({"temperature", FieldLocation::Vertex, 1});
-    c.fields.push_back({"stress", FieldLocation::Tet, 1});
+    c.fields.push_back({"temperature", FieldLocation::Vertex, 1, spec.field_units ? "K" : ""});
+    c.fields.push_back({"stress", FieldLocation::Tet, 1, spec.field_units ? "MPa" : ""});
   }
   c.regions.push_back({"clamp", "fixed", {0}});
   c.regions.push_back({"tip load", "force", {1}});

@@ -21,6 +21,7 @@ struct SyntheticSpec {
   bool fields = true;              ///< "temperature" per vertex, "stress" per tet
   bool infeasible_corner = false;  ///< host fails where all parameters exceed 0.8
   bool check_face_centres = true;  ///< AdaptiveOptions::check_face_centres
+  bool field_units = false;        ///< give the fields units ("K", "MPa"): a format 1.1 asset
 };
 
 /// The fixed topology of the box mesh.

@@ -18,12 +18,13 @@ static int failures = 0, checks = 0;
 int main(void) {
   cadinterp_asset* asset = NULL;
   static const unsigned char garbage[64] = {1, 2, 3};
+  const char* unit = "untouched";
   int major = -1, minor = -1, s;
 
   CHECK(strcmp(cadinterp_version(), "0.1.0") == 0);
   CHECK(cadinterp_version_number() == CADINTERP_VERSION_NUMBER);
   cadinterp_format_version(&major, &minor);
-  CHECK(major == 1 && minor == 0);
+  CHECK(major == 1 && minor == 1); /* 1.1: field units */
   for (s = CADINTERP_OK; s <= CADINTERP_E_NOT_FOUND; ++s)
     CHECK(cadinterp_status_string((cadinterp_status)s) != NULL);
   CHECK(strcmp(cadinterp_status_string((cadinterp_status)999), "unknown status") == 0);
@@ -34,6 +35,8 @@ int main(void) {
   CHECK(cadinterp_open_memory(garbage, sizeof garbage, 0, &asset) == CADINTERP_E_BAD_MAGIC);
   CHECK(cadinterp_open(NULL, &asset) == CADINTERP_E_INVALID_ARGUMENT);
   CHECK(cadinterp_dim(NULL) == 0);
+  CHECK(cadinterp_field_unit(NULL, 0, &unit) == CADINTERP_E_INVALID_ARGUMENT);
+  CHECK(strcmp(unit, "untouched") == 0);
   cadinterp_close(NULL);
   cadinterp_workspace_destroy(NULL);
 

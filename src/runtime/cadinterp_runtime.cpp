@@ -216,6 +216,7 @@ struct FieldSlot {
   cadinterp_field_location location;
   int components;
   double max_abs_error;
+  std::string unit;  // "" when the asset gives none (format 1.0, or a field without a unit)
 };
 
 struct RegionSlot {
@@ -297,11 +298,11 @@ cadinterp_status open_with(
     }
     if (idx.fields())
       for (const auto* f : *idx.fields())
-        a->fields.push_back({f->name()->str(),
-                             f->location() == cadinterp::fb::FieldLocation::Tet
-                                 ? CADINTERP_PER_TET
-                                 : CADINTERP_PER_VERTEX,
-                             f->components(), f->max_abs_error()});
+        a->fields.push_back(
+            {f->name()->str(),
+             f->location() == cadinterp::fb::FieldLocation::Tet ? CADINTERP_PER_TET
+                                                                : CADINTERP_PER_VERTEX,
+             f->components(), f->max_abs_error(), f->unit() ? f->unit()->str() : std::string()});
     if (idx.regions())
       for (const auto* r : *idx.regions()) {
         RegionSlot s{r->name()->str(), r->kind() ? r->kind()->str() : "", {}};
@@ -561,6 +562,13 @@ cadinterp_status cadinterp_field(const cadinterp_asset* a, int i, cadinterp_fiel
     return CADINTERP_E_INVALID_ARGUMENT;
   const FieldSlot& f = a->fields[static_cast<std::size_t>(i)];
   *out = {f.name.c_str(), f.location, f.components, f.max_abs_error};
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_field_unit(const cadinterp_asset* a, int i, const char** unit) {
+  if (!a || !unit || i < 0 || i >= static_cast<int>(a->fields.size()))
+    return CADINTERP_E_INVALID_ARGUMENT;
+  *unit = a->fields[static_cast<std::size_t>(i)].unit.c_str();
   return CADINTERP_OK;
 }
 

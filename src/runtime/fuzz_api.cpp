@@ -359,6 +359,10 @@ void Run::queries() {
     cadinterp_field_info g;
     cadinterp_field(a_, found, &g);
     CHECK(std::strcmp(g.name, f.name) == 0, "find_field found another name");
+    const char* unit = nullptr;
+    CHECK(cadinterp_field_unit(a_, i, &unit) == CADINTERP_OK && unit != nullptr, "field_unit(%d)",
+          i);
+    CHECK(std::strlen(unit) < (std::size_t(1) << 31), "field %d unit length", i);
     fields_.push_back(f);
   }
   {
@@ -366,6 +370,10 @@ void Run::queries() {
     poison(&f);
     CHECK(cadinterp_field(a_, nf, &f) == CADINTERP_E_INVALID_ARGUMENT && poisoned(&f),
           "field(count) accepted or wrote its output");
+    const char* const untouched = "untouched";
+    const char* unit = untouched;
+    CHECK(cadinterp_field_unit(a_, nf, &unit) == CADINTERP_E_INVALID_ARGUMENT && unit == untouched,
+          "field_unit(count) accepted or wrote its output");
     int idx = 12345;
     CHECK(cadinterp_find_field(a_, nullptr, &idx) == CADINTERP_E_INVALID_ARGUMENT && idx == 12345,
           "find_field(NULL)");

@@ -82,7 +82,44 @@ TEST(Runtime, QueriesDescribeTheAsset) {
   int major = 0, minor = -1;
   EXPECT_EQ(cadinterp_asset_format(o->asset, &major, &minor), CADINTERP_OK);
   EXPECT_EQ(major, 1);
-  EXPECT_EQ(minor, 0);
+  EXPECT_EQ(minor, 0);  // no field units: written as format 1.0
+  const char* unit = nullptr;
+  ASSERT_EQ(cadinterp_field_unit(o->asset, 0, &unit), CADINTERP_OK);
+  EXPECT_STREQ(unit, "");
+}
+
+// Field units (format 1.1): what the writer was given comes back per field; a field without one
+// gives ""; bad arguments give a named status and leave the output alone.
+TEST(Runtime, FieldUnitsRoundTrip) {
+  SyntheticSpec s = spec(1, cadinterp::core::Degree::Linear);
+  s.field_units = true;
+  const auto o = open_synthetic(s);
+  int major = 0, minor = -1;
+  ASSERT_EQ(cadinterp_asset_format(o->asset, &major, &minor), CADINTERP_OK);
+  EXPECT_EQ(minor, 1);
+  const char* unit = nullptr;
+  ASSERT_EQ(cadinterp_field_unit(o->asset, 0, &unit), CADINTERP_OK);
+  EXPECT_STREQ(unit, "K");
+  ASSERT_EQ(cadinterp_field_unit(o->asset, 1, &unit), CADINTERP_OK);
+  EXPECT_STREQ(unit, "MPa");
+  const char* untouched = "x";
+  unit = untouched;
+  EXPECT_EQ(cadinterp_field_unit(o->asset, 2, &unit), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_field_unit(o->asset, -1, &unit), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_field_unit(nullptr, 0, &unit), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_field_unit(o->asset, 0, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(unit, untouched);
+  // The unit-less fields of a mixed asset give "".
+  cadinterp::format::AssetContent c = o->synthetic.content;
+  c.fields[0].unit.clear();
+  const std::vector<std::uint8_t> bytes = cadinterp::format::write_asset(c, {});
+  cadinterp_asset* a = nullptr;
+  ASSERT_EQ(cadinterp_open_memory(bytes.data(), bytes.size(), 0, &a), CADINTERP_OK);
+  ASSERT_EQ(cadinterp_field_unit(a, 0, &unit), CADINTERP_OK);
+  EXPECT_STREQ(unit, "");
+  ASSERT_EQ(cadinterp_field_unit(a, 1, &unit), CADINTERP_OK);
+  EXPECT_STREQ(unit, "MPa");
+  cadinterp_close(a);
 }
 
 // Eval equals the blend of the stored samples with the basis weights, and approximates the host.

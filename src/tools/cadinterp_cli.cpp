@@ -421,13 +421,14 @@ int cmd_inspect(const std::vector<std::string>& args) {
     std::string name, location;
     int components;
     double max_abs_error;
+    std::string unit;  // "" when the asset gives none (format 1.0)
   };
   std::vector<FieldRow> fields;
   if (idx.fields())
     for (const fb::FieldDesc* f : *idx.fields())
       fields.push_back({f->name()->str(),
                         f->location() == fb::FieldLocation::Tet ? "tet" : "vertex", f->components(),
-                        f->max_abs_error()});
+                        f->max_abs_error(), f->unit() ? f->unit()->str() : std::string()});
   struct RegionRow {
     std::string name, kind;
     std::vector<int> tags;
@@ -506,7 +507,8 @@ int cmd_inspect(const std::vector<std::string>& args) {
     w.key("fields").begin_array();
     for (const FieldRow& f : fields) {
       w.begin_object().field("name", f.name).field("location", f.location);
-      w.field("components", f.components).field("max_abs_error", f.max_abs_error).end_object();
+      w.field("components", f.components).field("max_abs_error", f.max_abs_error);
+      w.field("unit", f.unit).end_object();
     }
     w.end_array();
     w.key("regions").begin_array();
@@ -584,7 +586,8 @@ int cmd_inspect(const std::vector<std::string>& args) {
   std::printf("\nfields       %zu\n", fields.size());
   for (const FieldRow& f : fields)
     std::printf(
-        "  %-20s per %-6s %2d component%s, %s\n", f.name.c_str(), f.location.c_str(), f.components,
+        "  %-20s %-8s per %-6s %2d component%s, %s\n", f.name.c_str(),
+        f.unit.empty() ? "-" : ("[" + f.unit + "]").c_str(), f.location.c_str(), f.components,
         f.components == 1 ? "" : "s",
         f.max_abs_error > 0 ? fmt("max abs error %g", f.max_abs_error).c_str() : "lossless");
   std::printf("regions      %zu\n", regions.size());

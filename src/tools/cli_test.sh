@@ -126,6 +126,14 @@ contains inspect_k2_linear out "temperature"
 contains inspect_k2_linear out "tip load"
 [ "$(json_get "$WORK/inspectj_k2_linear.out" 'd["parameters"][1]["name"]')" = twist ] ||
   fail "inspect --json: parameter name"
+# Field units (format 1.1): shown when the asset has them, "" in a 1.0 asset.
+contains inspect_k1_units out "[MPa]"
+[ "$(json_get "$WORK/inspectj_k1_units.out" '",".join(f["unit"] for f in d["fields"])')" = "K,MPa" ] ||
+  fail "inspect --json: field units of k1_units"
+[ "$(json_get "$WORK/inspectj_k1_units.out" 'd["format"]')" = "1.1" ] ||
+  fail "inspect --json: k1_units is format 1.1"
+[ "$(json_get "$WORK/inspectj_k2_linear.out" '",".join(f["unit"] for f in d["fields"])')" = "," ] ||
+  fail "inspect --json: a 1.0 asset's fields have no unit"
 
 # ---- eval and exports ---------------------------------------------------------------------------
 if run 0 eval_text -- eval "$A2" 0.3 0.7 --grad; then

@@ -27,6 +27,9 @@ using namespace cadinterp;
 
 namespace {
 
+// The first minor this runtime does not read.
+const std::string kNewerMinor = "format 1." + std::to_string(cadinterp::format::kFormatMinor + 1);
+
 std::string hex(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%a", v);
@@ -57,6 +60,11 @@ format::SyntheticSpec make_spec(int K, core::Degree g, int samples, bool fields,
   s.max_samples = samples;
   s.fields = fields;
   s.infeasible_corner = infeasible;
+  return s;
+}
+
+format::SyntheticSpec with_units(format::SyntheticSpec s) {
+  s.field_units = true;
   return s;
 }
 
@@ -158,6 +166,9 @@ int main(int argc, char** argv) {
          make_spec(4, core::Degree::Linear, 81, true, false), format::Codec::Draco},
         {"k2_infeasible", "K=2 linear, infeasible corner",
          make_spec(2, core::Degree::Linear, 40, true, true), format::Codec::QuantDeltaZstd},
+        // Format 1.1 (field units); every case above uses nothing of 1.1 and stays a 1.0 file.
+        {"k1_units", "K=1 linear, fields with units (format 1.1)",
+         with_units(make_spec(1, core::Degree::Linear, 9, true, false)), format::Codec::Raw},
     };
     std::vector<std::uint8_t> base;  // a valid asset to break for the invalid cases
     for (const Valid& v : valid) {
@@ -172,6 +183,9 @@ int main(int argc, char** argv) {
       write_bytes(dir / "asset.cadi", bytes);
       std::ofstream exp(dir / "expected.txt");
       exp << "# " << v.description << "\nopen CADINTERP_OK\ntolerance 1e-5\ngrad_tolerance 1e-4\n";
+      for (std::size_t f = 0; f < a.content.fields.size(); ++f)
+        exp << "unit " << f << ' '
+            << (a.content.fields[f].unit.empty() ? "-" : a.content.fields[f].unit) << '\n';
       std::mt19937_64 rng(17);
       std::vector<std::vector<double>> points;
       for (int i = 0; i < 4; ++i) {
@@ -204,8 +218,8 @@ int main(int argc, char** argv) {
          [](auto& b) { b[0] = 'C'; }},
         {"newer_major", "open", "CADINTERP_E_UNSUPPORTED_VERSION", "format 2.0",
          [](auto& b) { set_le(b, 8, 2, 2); }},
-        {"newer_minor", "open", "CADINTERP_E_UNSUPPORTED_VERSION", "format 1.1",
-         [](auto& b) { set_le(b, 10, 1, 2); }},
+        {"newer_minor", "open", "CADINTERP_E_UNSUPPORTED_VERSION", kNewerMinor.c_str(),
+         [](auto& b) { set_le(b, 10, format::kFormatMinor + 1u, 2); }},
         {"truncated_header", "open", "CADINTERP_E_TRUNCATED", "first 20 bytes",
          [](auto& b) { b.resize(20); }},
         {"truncated", "open", "CADINTERP_E_TRUNCATED", "last byte missing",

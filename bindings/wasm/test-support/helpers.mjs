@@ -47,12 +47,12 @@ export function parseNumber(s) {
 
 /**
  * expected.txt as a list of steps:
- * { open: status } | { tolerance } | { gradTolerance } |
+ * { open: status } | { tolerance } | { gradTolerance } | units: { [field index]: unit ('' for none) } |
  * { point: [...], status, element?, positions?, dpositions: [[...] x K], field0?, dfield0: [...] }
  */
 export function parseExpected(group, name) {
   const text = readFileSync(path.join(casesDir, group, name, 'expected.txt'), 'utf8');
-  const out = { open: null, tolerance: 1e-5, gradTolerance: 1e-4, points: [] };
+  const out = { open: null, tolerance: 1e-5, gradTolerance: 1e-4, points: [], units: {} };
   let cur = null;
   for (const line of text.split('\n')) {
     const tok = line.trim().split(/\s+/);
@@ -62,6 +62,7 @@ export function parseExpected(group, name) {
       case 'open': out.open = tok[1]; break;
       case 'tolerance': out.tolerance = Number(tok[1]); break;
       case 'grad_tolerance': out.gradTolerance = Number(tok[1]); break;
+      case 'unit': out.units[Number(tok[1])] = tok[2] === '-' ? '' : tok[2]; break;
       case 'point': cur = { x: nums(), dpositions: [], dfield0: [] }; out.points.push(cur); break;
       case 'status': cur.status = tok[1]; break;
       case 'element': cur.element = Number(tok[1]); break;

@@ -32,11 +32,25 @@ test('version and metadata', () => {
     for (const p of a.parameters) assert.ok(p.lower < p.upper && typeof p.unit === 'string');
     assert.deepEqual(a.fields.map((f) => [f.name, f.location, f.components]),
       [['temperature', 'vertex', 1], ['stress', 'tet', 1]]);
+    assert.deepEqual(a.fields.map((f) => f.unit), ['', '']); // format 1.0: no units
     assert.ok(a.regions.length > 0);
     for (const r of a.regions) assert.ok(r.faceTags instanceof Int32Array && r.name && r.kind);
     assert.equal(a.provenance.builderVersion, '0.1.0');
     assert.equal(JSON.parse(a.provenance.options).K, 2); // options are JSON
     assert.deepEqual(a.infeasiblePoints, []);
+  } finally {
+    a.close();
+  }
+});
+
+test('field units (format 1.1) come from the asset; the native runtime agrees', () => {
+  const a = lib.open(caseBytes('valid', 'k1_units'));
+  try {
+    // The generator (src/tools/make_conformance.cpp) gives temperature K and stress MPa; the
+    // native runner checks the same through cadinterp_field_unit (expected.txt "unit" lines).
+    assert.deepEqual(a.fields.map((f) => [f.name, f.unit]), [['temperature', 'K'], ['stress', 'MPa']]);
+    const m = a.eval(inner(a, [0.4]), ['stress'], { copy: true }); // units change nothing else
+    assert.ok(m.fields.stress.length === m.tetCount);
   } finally {
     a.close();
   }

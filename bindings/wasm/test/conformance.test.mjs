@@ -24,6 +24,7 @@ function runCase(group, name) {
   try {
     assert.equal('CADINTERP_OK', exp.open, 'open succeeded where the case expects a failure');
     const fields = asset.fields.length > 0 ? [asset.fields[0].name] : [];
+    for (const [i, unit] of Object.entries(exp.units)) assert.equal(asset.fields[Number(i)].unit, unit, `field ${i} unit`);
     for (const p of exp.points) {
       assert.equal(p.x.length, asset.dim);
       let mesh;

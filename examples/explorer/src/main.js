@@ -17,6 +17,14 @@ const hook = { ready: false, error: null };
 window.__explorer = hook;
 
 const STRESS_NAME = /stress|mises|tresca|sigma/i;
+// The host's applied surface traction (per vertex, 3 components, zero off loaded faces): force
+// arrows follow it, so that a load-direction parameter turns them (examples/hosts/occt).
+const TRACTION_FIELD = 'traction';
+
+/** " [unit]" for a field with a unit, "" without (format 1.0 assets have none). */
+function unitSuffix(f) {
+  return f?.unit ? ` [${f.unit}]` : '';
+}
 
 function fmt(v, digits = 4) {
   if (v === null || v === undefined || Number.isNaN(v)) return '–';
@@ -151,7 +159,7 @@ class Explorer {
     sel.add(none);
     for (const f of this.fields) {
       const what = f.components > 1 ? `|${f.name}| (${f.components}-vector)` : f.name;
-      sel.add(new Option(`${what} (per ${f.location})`, f.name));
+      sel.add(new Option(`${what}${unitSuffix(f)} (per ${f.location})`, f.name));
     }
     const stressFields = this.fields.filter((f) => STRESS_NAME.test(f.name));
     // Default display: a stress field if there is one (what the engineer looks at first).
@@ -165,7 +173,7 @@ class Explorer {
     const ssel = document.getElementById('stress-select');
     const candidates = stressFields.length ? stressFields : this.fields;
     if (!candidates.length) ssel.add(new Option('(no fields)', ''));
-    for (const f of candidates) ssel.add(new Option(f.name, f.name));
+    for (const f of candidates) ssel.add(new Option(`${f.name}${unitSuffix(f)}`, f.name));
     this.stressField = candidates[0]?.name ?? '';
     ssel.value = this.stressField;
     ssel.addEventListener('change', () => {
@@ -242,14 +250,23 @@ class Explorer {
     const box = document.getElementById('bc-legend');
     this.fixedTags = this.regions.filter((r) => r.kind === 'fixed').flatMap((r) => Array.from(r.faceTags));
     this.forceRegions = this.regions.filter((r) => r.kind === 'force');
+    this.tractionField = this.fields.find((f) => f.name === TRACTION_FIELD && f.location === 'vertex' && f.components === 3) ?? null;
+    const along = this.tractionField
+      ? 'arrow to its centroid, along the applied load (mean traction over its faces)'
+      : 'arrow to its centroid, along its mean inward normal (the asset has no traction field)';
     const lines = this.regions.map((r) => {
       const cls = r.kind === 'fixed' ? 'fixed' : r.kind === 'force' ? 'force' : '';
-      const how =
-        r.kind === 'fixed' ? 'hatched' : r.kind === 'force' ? 'arrow at its centroid, along its mean inward normal' : 'not drawn';
-      return `<div><span class="swatch ${cls}"></span><b></b> (${r.kind || 'no kind'}; faces ${Array.from(r.faceTags).join(', ')}): ${how}</div>`;
+      const how = r.kind === 'fixed' ? 'hatched' : r.kind === 'force' ? along : 'not drawn';
+      return `<div><span class="swatch ${cls}"></span><b></b> (${r.kind || 'no kind'}; faces ${Array.from(r.faceTags).join(', ')}): ${how}<span class="load"></span></div>`;
     });
     box.innerHTML = lines.join('') || 'none in this asset';
     box.querySelectorAll('b').forEach((b, i) => (b.textContent = this.regions[i].name));
+    const rows = box.querySelectorAll(':scope > div');
+    this.loadLabels = this.forceRegions.map((r) => {
+      const row = rows[this.regions.indexOf(r)];
+      return { row, span: row.querySelector('.load') };
+    });
+    this.loads = this.forceRegions.map(() => null);
     this.arrows = this.forceRegions.map(() => {
       const a = new THREE.ArrowHelper(new THREE.Vector3(1, 0, 0), new THREE.Vector3(), 1, 0xe4572e);
       a.visible = false;
@@ -334,7 +351,7 @@ class Explorer {
       this.setInfeasible(this.infeasibleText(loc.element));
       return;
     }
-    const names = [...new Set([this.displayField, this.stressField].filter(Boolean))];
+    const names = [...new Set([this.displayField, this.stressField, this.tractionField?.name].filter(Boolean))];
     let m;
     try {
       m = this.asset.eval(x, names); // views into wasm memory: read before the next call
@@ -378,7 +395,8 @@ class Explorer {
       a.addUpdateRange?.(0, 3 * nv);
       a.needsUpdate = true;
     }
-    this.updateArrows(pos);
+    this.updateLoads(pos, this.tractionField ? m.fields[this.tractionField.name] : null);
+    this.updateArrows();
     if (!this.viewFitted) this.fitView(pos, nv);
     this.readout = r;
     this.evaluatedX = Float64Array.from(x);
@@ -498,17 +516,49 @@ class Explorer {
     el.textContent = text;
   }
 
-  updateArrows(pos) {
+  /** Each force region's centroid and load on the mesh on screen: the area-weighted mean of the
+   *  traction field over the region's faces (the applied load, which a load-direction parameter
+   *  turns), or without that field the mean inward normal. */
+  updateLoads(pos, traction) {
+    const unit = this.tractionField?.unit ?? '';
+    this.loads = this.forceRegions.map((region, k) => {
+      const f = this.surface.regionFrame(pos, region.faceTags, traction);
+      const label = this.loadLabels[k];
+      if (!f) {
+        label.span.textContent = '';
+        return null;
+      }
+      const t = f.meanTraction;
+      const mag = t ? Math.hypot(...t) : 0;
+      // A region without load at this x (zero traction) falls back to the normal, drawn alike.
+      const fromTraction = !!t && mag > 0;
+      const dir = fromTraction ? t.map((c) => c / mag) : f.outwardNormal.map((c) => -c);
+      const load = { centroid: f.centroid, direction: dir, magnitude: fromTraction ? mag : NaN, traction: t, source: fromTraction ? 'traction' : 'normal' };
+      const text = fromTraction
+        ? ` — load ${fmt(mag)}${unit ? ` ${unit}` : ''} along (${dir.map((c) => fmt(c, 3)).join(', ')})`
+        : '';
+      label.span.textContent = text;
+      label.row.title = fromTraction
+        ? `mean applied traction ${t.map((c) => fmt(c)).join(', ')}${unit ? ` ${unit}` : ''} over ${fmt(f.area)} of area`
+        : 'drawn along the mean inward normal';
+      return load;
+    });
+  }
+
+  updateArrows() {
     const diag = this.diagonal ?? 1;
+    // The largest load gets 0.18 of the part's diagonal; smaller ones shorter, never below half
+    // of it (a tiny arrow is hard to see and its direction is what matters most).
+    const big = Math.max(0, ...this.loads.filter(Boolean).map((l) => (Number.isFinite(l.magnitude) ? l.magnitude : 0)));
     this.forceRegions.forEach((region, k) => {
-      const f = this.surface.regionFrame(pos, region.faceTags);
+      const l = this.loads[k];
       const a = this.arrows[k];
-      a.visible = !!f;
-      if (!f) return;
-      const dir = new THREE.Vector3(...f.outwardNormal).negate(); // the mean inward normal
-      const len = 0.18 * diag;
-      // The tip touches the region's centroid: the load pushes into the part there.
-      a.position.set(...f.centroid).addScaledVector(dir, -len);
+      a.visible = !!l;
+      if (!l) return;
+      const dir = new THREE.Vector3(...l.direction);
+      const len = 0.18 * diag * (big > 0 && Number.isFinite(l.magnitude) ? 0.5 + 0.5 * (l.magnitude / big) : 1);
+      // The tip touches the region's centroid: the load acts on the part there.
+      a.position.set(...l.centroid).addScaledVector(dir, -len);
       a.setDirection(dir);
       a.setLength(len, 0.3 * len, 0.15 * len);
     });
@@ -533,7 +583,7 @@ class Explorer {
     this.camera.updateProjectionMatrix();
     this.controls.update();
     this.viewFitted = true;
-    this.updateArrows(pos);
+    this.updateArrows();
   }
 
   // ---- panels ----------------------------------------------------------------------------------
@@ -552,7 +602,7 @@ class Explorer {
       ['Ixx, Iyy, Izz', `${fmt(I[0], 3)}, ${fmt(I[4], 3)}, ${fmt(I[8], 3)}`],
       ['Ixy, Ixz, Iyz', `${fmt(I[1], 3)}, ${fmt(I[2], 3)}, ${fmt(I[5], 3)}`],
       ['centroid', (r.centroid ?? []).map((c) => fmt(c)).join(' ')],
-      [`max ${this.stressField || 'stress'}`, fmt(r.maxStress)],
+      [`max ${this.stressField || 'stress'}`, `${fmt(r.maxStress)}${this.stressUnit()}`],
       ['error estimate', r.errorEstimate >= 0 ? `${fmt(100 * r.errorEstimate, 3)} % of bbox diagonal` : 'not measured'],
       ['element', String(r.element)],
       ['mesh', `${r.vertices} vertices, ${r.tets} tets, ${r.triangles} triangles`],
@@ -565,6 +615,11 @@ class Explorer {
       t.rows[i].cells[0].textContent = k;
       t.rows[i].cells[1].textContent = v;
     });
+  }
+
+  stressUnit() {
+    const u = this.fields.find((f) => f.name === this.stressField)?.unit;
+    return u ? ` ${u}` : '';
   }
 
   renderLegend() {
@@ -582,6 +637,10 @@ class Explorer {
     const key = range ? `${range[0]}:${range[1]}:${this.displayField}` : '';
     if (key === this.legendKey) return;
     this.legendKey = key;
+    const shown = this.fields.find((f) => f.name === this.displayField);
+    document.getElementById('legend-title').textContent = shown
+      ? `${shown.components > 1 ? `|${shown.name}|` : shown.name}${shown.unit ? ` in ${shown.unit}` : ' (no unit in the asset)'}`
+      : '';
     canvas.style.visibility = range ? 'visible' : 'hidden';
     if (!range) {
       ticks.innerHTML = '';
@@ -702,11 +761,19 @@ class Explorer {
         worker: !!this.worker,
         stats: { ...this.stats },
         marks: this.sliders.map((s) => s.runs),
-        arrows: this.arrows.map((a) => ({
+        arrows: this.arrows.map((a, k) => ({
+          region: this.forceRegions[k].name,
           visible: a.visible,
           position: a.position.toArray(),
           direction: new THREE.Vector3(0, 1, 0).applyQuaternion(a.quaternion).toArray(),
+          length: a.cone.position.y,
+          source: this.loads[k]?.source ?? null,
+          traction: this.loads[k]?.traction ?? null,
+          magnitude: this.loads[k]?.magnitude ?? null,
+          label: this.loadLabels[k].span.textContent,
         })),
+        legendTitle: document.getElementById('legend-title').textContent,
+        legendTicks: Array.from(document.querySelectorAll('#legend-ticks span')).map((s) => s.textContent),
         overlayTriangles: this.overlay ? this.overlay.geometry.drawRange.count / 3 : 0,
       }),
       /** What is drawn: the surface vertices' ids in the full mesh and their positions. */

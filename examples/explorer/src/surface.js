@@ -204,10 +204,11 @@ export class Surface {
 
   /** Area-weighted centroid, mean outward normal and area of the triangles with a tag in
    *  `tags`, on compact positions `pos`. */
-  regionFrame(pos, tags) {
+  regionFrame(pos, tags, traction = null) {
     const tagSet = new Set(tags);
-    const idx = this.index, triTags = this.triangleTags;
+    const idx = this.index, triTags = this.triangleTags, tri = this.triangles;
     let area = 0, cx = 0, cy = 0, cz = 0, nx = 0, ny = 0, nz = 0, count = 0;
+    let tx = 0, ty = 0, tz = 0;
     for (let f = 0; f < triTags.length; ++f) {
       if (!tagSet.has(triTags[f])) continue;
       const a = 3 * idx[3 * f], b = 3 * idx[3 * f + 1], c = 3 * idx[3 * f + 2];
@@ -221,6 +222,14 @@ export class Surface {
       cz += (A * (pos[a + 2] + pos[b + 2] + pos[c + 2])) / 3;
       nx += 0.5 * x; ny += 0.5 * y; nz += 0.5 * z;
       count += 1;
+      if (traction) {
+        // Area-weighted mean of a per-vertex 3-vector field (indexed by the full mesh's vertex
+        // ids): the integral of the linear interpolant over the triangle is A (t_a + t_b + t_c) / 3.
+        const p = 3 * tri[3 * f], q = 3 * tri[3 * f + 1], r = 3 * tri[3 * f + 2];
+        tx += (A * (traction[p] + traction[q] + traction[r])) / 3;
+        ty += (A * (traction[p + 1] + traction[q + 1] + traction[r + 1])) / 3;
+        tz += (A * (traction[p + 2] + traction[q + 2] + traction[r + 2])) / 3;
+      }
     }
     if (count === 0 || area === 0) return null;
     const l = Math.hypot(nx, ny, nz) || 1;
@@ -229,6 +238,8 @@ export class Surface {
       triangles: count,
       centroid: [cx / area, cy / area, cz / area],
       outwardNormal: [nx / l, ny / l, nz / l],
+      /** Area-weighted mean of `traction` over the region (null without it). */
+      meanTraction: traction ? [tx / area, ty / area, tz / area] : null,
     };
   }
 

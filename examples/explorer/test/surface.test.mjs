@@ -100,6 +100,30 @@ describe('Surface', () => {
     assert.equal(s.regionIndex([1, 2]).length, 12);
   });
 
+  it('averages a per-vertex traction over a region by area (exact for a linear field)', () => {
+    const m = cube();
+    const s = new Surface();
+    s.sync(m);
+    const pos = new Float32Array(24);
+    s.gatherPositions(m.positions, pos);
+    // t(p) = (x, 2 y, 3 - z), indexed by the full mesh's vertex ids: its mean over a unit face is
+    // its value at the face centre (linear field, the triangles' integral is exact).
+    const t = new Float32Array(3 * m.vertexCount);
+    for (let v = 0; v < m.vertexCount; ++v) {
+      const [x, y, z] = m.positions.subarray(3 * v, 3 * v + 3);
+      t.set([x, 2 * y, 3 - z], 3 * v);
+    }
+    const expect = { 1: [0, 1, 2.5], 2: [1, 1, 2.5], 6: [0.5, 1, 2] };
+    for (const [tag, want] of Object.entries(expect)) {
+      const f = s.regionFrame(pos, [Number(tag)], t);
+      f.meanTraction.forEach((v, i) => assert.ok(Math.abs(v - want[i]) < 1e-6, `tag ${tag}: ${f.meanTraction}`));
+    }
+    // Two faces together: weighted by their (equal) areas.
+    const both = s.regionFrame(pos, [1, 2], t).meanTraction;
+    [0.5, 1, 2.5].forEach((w, i) => assert.ok(Math.abs(both[i] - w) < 1e-6, `${both}`));
+    assert.equal(s.regionFrame(pos, [1]).meanTraction, null);
+  });
+
   it('averages per-tet values over the tets owning a vertex\'s boundary triangles', () => {
     const m = cube();
     const s = new Surface();

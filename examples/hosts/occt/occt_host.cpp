@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <list>
 #include <map>
 #include <memory>
@@ -168,7 +169,9 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
                ", quality=" + g(m.mesh.quality) + ", angle=" + g(m.mesh.angle) +
                ", force=" + g(m.settings.force) +
                (m.def->name == "hub" ? ", heat_flux=" + g(m.settings.heat_flux) : "") +
-               (names.empty() ? std::string() : ", vary=" + vary) + ")";
+               (names.empty() ? std::string() : ", vary=" + vary) + ")" +
+               // The fields changed (traction added, units set): stores of before are refused.
+               " fields v2";
   for (std::size_t i : m.varied) {
     const ParameterDef& p = m.def->parameters[i];
     m.params.push_back({p.name.c_str(), p.unit.c_str(), p.lower, p.upper});
@@ -337,6 +340,76 @@ double Model::exact_volume(const double* x) const {
   }
 }
 
+#ifdef CADINTERP_OCCT_HAVE_PHYSICS
+namespace {
+
+// The applied surface traction as a per-vertex field (#V by 3), from exactly the loads handed to
+// the FEM (examples/physics/physics_solve.cpp): a Force is its total spread uniformly over the
+// region's area, F / A; a Pressure p is -p n on each triangle (positive pushes into the solid).
+// Per vertex: the area-weighted mean over the loaded triangles around it, so that every vertex of
+// a uniformly loaded region carries exactly F / A and the explorer's area-weighted mean over the
+// region's faces gives the applied load back.
+std::vector<double> traction_field(
+    const Evaluation& e, const LoadCase& c,
+    const std::function<std::vector<std::int32_t>(const std::string&)>& tags_of) {
+  const std::size_t nv = e.vertices.size() / 3, nf = e.triangles.size() / 3;
+  std::vector<double> face_t(3 * nf, 0.0), face_area(nf, 0.0), face_n(3 * nf, 0.0);
+  std::vector<std::uint8_t> loaded(nf, 0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const double* a = &e.vertices[3 * e.triangles[3 * f]];
+    const double* b = &e.vertices[3 * e.triangles[3 * f + 1]];
+    const double* d = &e.vertices[3 * e.triangles[3 * f + 2]];
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double v[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                         u[0] * v[1] - u[1] * v[0]};
+    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    face_area[f] = 0.5 * len;
+    for (int i = 0; i < 3; ++i)
+      face_n[3 * f + static_cast<std::size_t>(i)] = len > 0 ? n[i] / len : 0;
+  }
+  auto faces_of = [&](const std::string& region) {
+    const std::vector<std::int32_t> t = tags_of(region);
+    const std::set<std::int32_t> s(t.begin(), t.end());
+    std::vector<std::size_t> out;
+    for (std::size_t f = 0; f < nf; ++f)
+      if (s.count(e.triangle_tags[f])) out.push_back(f);
+    return out;
+  };
+  for (const auto& force : c.forces) {
+    const std::vector<std::size_t> faces = faces_of(force.region);
+    double area = 0;
+    for (std::size_t f : faces) area += face_area[f];
+    if (!(area > 0)) continue;  // the FEM refuses it with its own message
+    for (std::size_t f : faces) {
+      loaded[f] = 1;
+      for (std::size_t i = 0; i < 3; ++i) face_t[3 * f + i] += force.force[i] / area;
+    }
+  }
+  for (const auto& p : c.pressures)
+    for (std::size_t f : faces_of(p.region)) {
+      if (face_area[f] == 0) continue;
+      loaded[f] = 1;
+      for (std::size_t i = 0; i < 3; ++i) face_t[3 * f + i] -= p.pressure * face_n[3 * f + i];
+    }
+  std::vector<double> t(3 * nv, 0.0), w(nv, 0.0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (!loaded[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t vtx = e.triangles[3 * f + static_cast<std::size_t>(k)];
+      w[vtx] += face_area[f];
+      for (std::size_t i = 0; i < 3; ++i) t[3 * vtx + i] += face_area[f] * face_t[3 * f + i];
+    }
+  }
+  for (std::size_t v = 0; v < nv; ++v)
+    if (w[v] > 0)
+      for (std::size_t i = 0; i < 3; ++i) t[3 * v + i] /= w[v];
+  return t;
+}
+
+}  // namespace
+#endif
+
 Fields Model::simulate(const double* x, const Evaluation& e) const {
 #ifdef CADINTERP_OCCT_HAVE_PHYSICS
   if (!e.ok) throw std::runtime_error("simulate: the evaluation failed: " + e.message);
@@ -374,6 +447,7 @@ Fields Model::simulate(const double* x, const Evaluation& e) const {
   out.von_mises = s.von_mises;
   out.displacement = s.displacement;
   out.temperature = s.temperature;
+  out.traction = traction_field(e, c, tags);
   StageTimes t;
   t.physics = since(t0);
   m.count(t);
@@ -508,6 +582,23 @@ cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host
       s = cadinterp_sample_add_field(out, "temperature", CADINTERP_PER_VERTEX, 1,
                                      f.temperature.data(), nv);
     }
+    // The applied load, so that a viewer draws the real load direction (the wrench's load angle
+    // turns it; the geometry does not show it).
+    if (s == CADINTERP_OK) {
+      if (f.traction.size() != 3 * nv)
+        return fail(out, "simulate: the FEM returned no traction field");
+      s = cadinterp_sample_add_field(out, "traction", CADINTERP_PER_VERTEX, 3, f.traction.data(),
+                                     nv);
+    }
+    // Units of the models (mm, N): stress and traction in MPa = N/mm^2, displacement in mm;
+    // temperatures are degrees Celsius (the models' ambient and bore temperatures are 20).
+    const char* const units[][2] = {{"von_mises", "MPa"},
+                                    {"displacement", "mm"},
+                                    {"temperature", "\u00B0C"},
+                                    {"traction", "MPa"}};
+    for (const auto& u : units)
+      if (s == CADINTERP_OK && (u[0] != std::string("temperature") || m->thermal()))
+        s = cadinterp_sample_set_field_unit(out, u[0], u[1]);
     return s;
   } catch (const std::bad_alloc&) {
     return CADINTERP_E_OUT_OF_MEMORY;

@@ -74,9 +74,12 @@ struct Evaluation {
   double mesh_volume = 0;   ///< sum of the tets' volumes
 };
 
-/// Fields of one simulation (per vertex).
+/// Fields of one simulation (per vertex), in the models' units: mm, N, MPa, degrees Celsius.
 struct Fields {
   std::vector<double> von_mises, displacement, temperature;
+  /// #V by 3: the surface traction the FEM applied (MPa = N/mm^2), per vertex the area-weighted
+  /// mean over the loaded boundary triangles around it; zero off loaded faces.
+  std::vector<double> traction;
 };
 
 class Model {

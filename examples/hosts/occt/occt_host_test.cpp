@@ -81,10 +81,17 @@ TEST(OcctHost, EveryModelRegeneratesValidSamples) {
         EXPECT_EQ(s.fields[0].name, "von_mises");
         EXPECT_EQ(s.fields[1].name, "displacement");
         EXPECT_EQ(s.fields[1].components, 3);
+        // von_mises, displacement, [temperature,] traction, with the models' units.
+        ASSERT_EQ(s.fields.size(), name == "hub" ? 4u : 3u);
         if (name == "hub") {
-          ASSERT_EQ(s.fields.size(), 3u);
           EXPECT_EQ(s.fields[2].name, "temperature");
+          EXPECT_EQ(s.fields[2].unit, "\u00B0C");
         }
+        EXPECT_EQ(s.fields.back().name, "traction");
+        EXPECT_EQ(s.fields.back().components, 3);
+        EXPECT_EQ(s.fields.back().unit, "MPa");
+        EXPECT_EQ(s.fields[0].unit, "MPa");
+        EXPECT_EQ(s.fields[1].unit, "mm");
       }
     }
   }
@@ -327,6 +334,19 @@ TEST(OcctHost, LoadsActOnTheRightFaces) {
     }
     EXPECT_LT(u_jaw, 1e-12);
     for (double s : f.von_mises) EXPECT_GE(s, 0);
+    // The traction field is the applied load: 200 N (0, -cos a, sin a) spread over the handle's
+    // 14 x 6 mm end face, on every vertex of that face, and zero on every vertex off it.
+    ASSERT_EQ(f.traction.size(), e.vertices.size());
+    const double a = angle * M_PI / 180, t_end = 200.0 / (14 * 6);
+    const double want[3] = {0, -t_end * std::cos(a), t_end * std::sin(a)};
+    for (std::size_t v = 0; v < e.vertices.size() / 3; ++v)
+      for (int c = 0; c < 3; ++c) {
+        const double got = f.traction[3 * v + static_cast<std::size_t>(c)];
+        if (std::abs(e.vertices[3 * v] + L) < 1e-6)
+          EXPECT_NEAR(got, want[c], 1e-9 * t_end) << "end-face vertex " << v;
+        else
+          EXPECT_EQ(got, 0.0) << "vertex " << v << " off the loaded face";
+      }
   }
 }
 
