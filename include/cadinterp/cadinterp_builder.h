@@ -261,9 +261,36 @@ CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* builder);
  */
 CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* builder,
                                                      const char* output_path);
-/** The report of the last run (zeros before the first). */
+/** The report of the last run, finished or failed (zeros before the first). After a failure it
+ * counts what was done before it: host_evaluations, store_hits, infeasible_points; `samples` is
+ * the points requested so far when the refinement did not finish, `elements` the leaves so far. */
 CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* builder,
                                                         cadinterp_build_report* out);
+
+/** What cadinterp_build_report cannot carry (it has no size member, so it cannot grow). */
+typedef struct cadinterp_build_stages {
+  size_t struct_size;      /**< sizeof(cadinterp_build_stages), set by the caller */
+  int points_requested;    /**< distinct sample points the refinement asked for */
+  int infeasible_reasons;  /**< distinct messages listed by cadinterp_builder_infeasible_reason */
+  int other_infeasible_points; /**< infeasible points whose message is not listed */
+  double store_seconds;      /**< opening the sample store */
+  double sampling_seconds;   /**< waves of sample points: store reads, host, store writes */
+  double refinement_seconds; /**< error tests of the adaptive refinement (mapping included) */
+  double elements_seconds;   /**< canonical meshes, terms mapped into them, asset content */
+  double write_seconds;      /**< encoding and writing the asset */
+} cadinterp_build_stages;
+
+/** Stage times and counts of the last run, finished or failed. Fills at most
+ * out->struct_size bytes (grow-by-addition). */
+CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder* builder,
+                                                        cadinterp_build_stages* out);
+
+/** The last run's index-th distinct reason for infeasible points (first met first, at most 8):
+ * the host's message (valid until the next run or destroy) and how many points gave it.
+ * @return CADINTERP_E_INVALID_ARGUMENT past the last one. */
+CADINTERP_API cadinterp_status cadinterp_builder_infeasible_reason(const cadinterp_builder* builder,
+                                                                   int index, const char** message,
+                                                                   int* count);
 /** Message of the builder's last failed call ("" if none); valid until the next call. */
 CADINTERP_API const char* cadinterp_builder_error(const cadinterp_builder* builder);
 

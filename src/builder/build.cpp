@@ -30,6 +30,64 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Adds the wall time of a scope to `total` when the scope ends, by return or by exception, so a
+// failed build still reports where its time went. `excluded` (may be null) is a stage timed
+// inside this one: its growth during the scope is subtracted.
+class StageTimer {
+ public:
+  StageTimer(double& total, const double* excluded = nullptr)
+      : total_(total), excluded_(excluded), excluded0_(excluded ? *excluded : 0.0) {}
+  ~StageTimer() { total_ += seconds_since(t0_) - (excluded_ ? *excluded_ - excluded0_ : 0.0); }
+  StageTimer(const StageTimer&) = delete;
+  StageTimer& operator=(const StageTimer&) = delete;
+
+ private:
+  double& total_;
+  const double* excluded_;
+  double excluded0_;
+  Clock::time_point t0_ = Clock::now();
+};
+
+// Counts `message` among the first kMaxReasons distinct ones (first-seen order), or in `other`.
+void count_reason(std::vector<BuildReport::Reason>& reasons, int& other, const std::string& message,
+                  const std::vector<double>& x) {
+  for (BuildReport::Reason& r : reasons)
+    if (r.message == message) {
+      ++r.count;
+      return;
+    }
+  if (reasons.size() < BuildReport::kMaxReasons) {
+    reasons.push_back({message, 1, x});
+    return;
+  }
+  ++other;
+}
+
+// "'a' x3; 'b' x1; 2 more with other messages": the first `shown` reasons, for exception
+// messages (each message cut to 200 characters: hosts may return long diagnostics).
+std::string reasons_text(const std::vector<BuildReport::Reason>& reasons, int other,
+                         std::size_t shown = 3) {
+  std::string t;
+  int hidden = other;
+  for (std::size_t i = 0; i < reasons.size(); ++i) {
+    if (i >= shown) {
+      hidden += reasons[i].count;
+      continue;
+    }
+    std::string m = reasons[i].message;
+    if (m.size() > 200) m = m.substr(0, 197) + "...";
+    if (!t.empty()) t += "; ";
+    t += "'" + m + "' x" + std::to_string(reasons[i].count);
+  }
+  if (hidden > 0)
+    t += (t.empty() ? "" : "; ") + std::to_string(hidden) + " more with other messages";
+  return t;
+}
+
 std::string hex_double(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%a", v);
@@ -59,17 +117,22 @@ struct FieldSignature {
 class MeshProblem final : public core::AdaptiveProblem {
  public:
   MeshProblem(const Host& host, const BuildOptions& opt, const Mapper& mapper, Executor& exec,
-              SampleStore* store, cadinterp_build_report& report, Clock::time_point start)
+              SampleStore* store, BuildReport& report, Clock::time_point start)
       : host_(host),
         opt_(opt),
         mapper_(mapper),
         exec_(exec),
         store_(store),
-        report_(report),
+        details_(report),
+        report_(report.counts),
         start_(start) {}
 
   void evaluate(const std::vector<int>& rows, const std::vector<double>& x,
                 std::vector<char>& feasible) override {
+    const StageTimer timer(details_.sampling_seconds);
+    details_.points_requested += static_cast<int>(rows.size());
+    // Until the basis exists, `samples` says how many points were asked for (BuildReport).
+    report_.samples = details_.points_requested;
     const std::size_t K = static_cast<std::size_t>(host_.dim());
     std::vector<std::vector<double>> pending;
     std::vector<int> pending_rows;
@@ -124,7 +187,11 @@ class MeshProblem final : public core::AdaptiveProblem {
         }
       }
       feasible[i] = s->feasible ? 1 : 0;
-      if (!s->feasible) ++report_.infeasible_points;
+      if (!s->feasible) {
+        ++report_.infeasible_points;
+        count_reason(details_.infeasible_reasons, details_.other_infeasible_points, s->message,
+                     points_[r]);
+      }
       if (classes_.size() <= r) classes_.resize(r + 1, -1);
       if (s->feasible) classes_[r] = combinatorics_class(*s);
     }
@@ -293,7 +360,10 @@ class MeshProblem final : public core::AdaptiveProblem {
                         : (queued > 0 ? -1.0 : 0.0);
     return opt_.progress(p);
   }
-  void on_wave(int elements) override { elements_ = elements; }
+  void on_wave(int elements) override {
+    elements_ = elements;
+    report_.elements = elements;
+  }
 
  private:
   static constexpr std::size_t kMapCacheBytes = std::size_t(512) << 20;
@@ -319,7 +389,8 @@ class MeshProblem final : public core::AdaptiveProblem {
   const Mapper& mapper_;
   Executor& exec_;
   SampleStore* store_;
-  cadinterp_build_report& report_;
+  BuildReport& details_;
+  cadinterp_build_report& report_;  // details_.counts
   Clock::time_point start_;
   std::vector<std::shared_ptr<const Sample>> samples_;  // per row
   std::vector<std::vector<double>> points_;             // per row
@@ -377,7 +448,10 @@ std::string options_json(const BuildOptions& o, const char* mapper_name) {
          "}";
 }
 
-BuildResult build(const Host& host, const BuildOptions& opt) {
+namespace {
+
+BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport& details,
+                         Clock::time_point start) {
   if (!(opt.geometry_tolerance > 0) || !(opt.field_tolerance > 0))
     throw std::invalid_argument("build: tolerances must be positive");
   if (opt.max_samples < 2) throw std::invalid_argument("build: max_samples must be at least 2");
@@ -387,10 +461,9 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
   if (opt.threads < 0) throw std::invalid_argument("build: threads must be >= 0");
   if (!(opt.position_max_abs_error >= 0))
     throw std::invalid_argument("build: position_max_abs_error must be >= 0");
-  const auto start = Clock::now();
 
   BuildResult out;
-  cadinterp_build_report& rep = out.report;
+  cadinterp_build_report& rep = details.counts;
   const Mapper& mapper = opt.mapper ? *opt.mapper : default_mapper();
   const int threads = opt.threads > 0
                           ? opt.threads
@@ -399,19 +472,28 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
   Executor& exec = opt.executor ? *opt.executor : pool;
 
   std::unique_ptr<SampleStore> store;
-  if (!opt.store_path.empty())
+  if (!opt.store_path.empty()) {
+    const StageTimer timer(details.store_seconds);
     store = std::make_unique<SampleStore>(opt.store_path, store_fingerprint(host));
+  }
 
-  MeshProblem problem(host, opt, mapper, exec, store.get(), rep, start);
+  MeshProblem problem(host, opt, mapper, exec, store.get(), details, start);
   core::AdaptiveOptions ao;
   ao.degree = opt.degree;
   ao.tolerance = 1.0;  // errors are already relative to their targets
   ao.max_samples = opt.max_samples;
   ao.max_level = opt.max_depth;
+  std::optional<StageTimer> refining(std::in_place, details.refinement_seconds,
+                                     &details.sampling_seconds);
   core::AdaptiveRun run = core::adaptive_run(host.dim(), host.lower(), host.upper(), problem, ao);
+  refining.reset();
+  const StageTimer elements_timer(details.elements_seconds);
 
   const core::Basis& basis = run.basis;
   const int S = basis.sample_count();
+  const std::vector<int> leaves = basis.tree().leaves();
+  rep.samples = S;
+  rep.elements = static_cast<int>(leaves.size());
   std::vector<bool> infeasible_sample(static_cast<std::size_t>(S));
   bool any = false;
   for (int k = 0; k < S; ++k) {
@@ -421,14 +503,17 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
     infeasible_sample[static_cast<std::size_t>(k)] = !ok;
     any = any || ok;
   }
-  if (!any) throw BuildInfeasible("the host failed at every sample point");
+  if (!any)
+    throw BuildInfeasible(
+        "the host failed at every sample point (" + std::to_string(rep.infeasible_points) +
+        " points: " + reasons_text(details.infeasible_reasons, details.other_infeasible_points) +
+        ")");
   for (int r = 0; r < problem.rows(); ++r)
     if (!problem.sample(r).feasible)
       out.infeasible.push_back({problem.point(r), problem.sample(r).message});
 
   core::CompiledBasis cb =
       core::CompiledBasis::compile(basis, host.lower(), host.upper(), &infeasible_sample);
-  const std::vector<int> leaves = basis.tree().leaves();
   format::AssetContent& c = out.content;
   std::vector<std::uint8_t> element_ok(leaves.size(), 1);
 
@@ -586,8 +671,10 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
       if (bridged[static_cast<std::size_t>(t)]) {
         ++out.neighbour.bridged;
       } else if (!direct) {
+        const std::string& why = problem.why(row, crow);
         out.infeasible.push_back(
-            {problem.point(crow), "element " + std::to_string(e) + ": " + problem.why(row, crow)});
+            {problem.point(crow), "element " + std::to_string(e) + ": " + why});
+        count_reason(details.element_reasons, details.other_infeasible_elements, why, {});
         ok = false;
       }
     }
@@ -627,8 +714,14 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
     c.elements.push_back(std::move(ed));
   }
   if (!field_source) {
-    std::string why = "no element could be built (all infeasible)";
-    if (!out.infeasible.empty()) why += "; e.g. " + out.infeasible.front().message;
+    std::string why =
+        "no element could be built (all " + std::to_string(leaves.size()) + " infeasible)";
+    if (!details.element_reasons.empty())
+      why +=
+          "; elements: " + reasons_text(details.element_reasons, details.other_infeasible_elements);
+    if (!details.infeasible_reasons.empty())
+      why +=
+          "; points: " + reasons_text(details.infeasible_reasons, details.other_infeasible_points);
     throw BuildInfeasible(why);
   }
 
@@ -645,7 +738,7 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
   for (const Field& f : field_source->fields)
     c.fields.push_back(
         {f.name, f.location == 0 ? format::FieldLocation::Vertex : format::FieldLocation::Tet,
-         f.components});
+         f.components, f.unit});
   for (const Region& r : field_source->regions) c.regions.push_back({r.name, r.kind, r.face_tags});
   c.builder_version = std::to_string(CADINTERP_VERSION_MAJOR) + "." +
                       std::to_string(CADINTERP_VERSION_MINOR) + "." +
@@ -654,11 +747,34 @@ BuildResult build(const Host& host, const BuildOptions& opt) {
   c.options_json = options_json(opt, mapper.name());
   for (const InfeasiblePoint& f : out.infeasible) c.infeasible.push_back({f.x, f.message});
 
-  rep.samples = S;
-  rep.elements = static_cast<int>(leaves.size());
   rep.budget_exhausted = run.budget_exhausted ? 1 : 0;
-  rep.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return out;
+}
+
+}  // namespace
+
+BuildResult build(const Host& host, const BuildOptions& opt, BuildReport* report) {
+  const auto start = Clock::now();
+  BuildReport local;
+  BuildReport& details = report ? *report : local;
+  details = BuildReport{};
+  // Whatever ends the build, the report says how far it got: every stage writes its counts
+  // into `details` as it goes, and only the wall time and the failure are added here.
+  try {
+    BuildResult out = build_stages(host, opt, details, start);
+    details.counts.wall_seconds = seconds_since(start);
+    out.report = details.counts;
+    out.details = details;
+    return out;
+  } catch (const std::exception& e) {
+    details.counts.wall_seconds = seconds_since(start);
+    details.failure = e.what();
+    throw;
+  } catch (...) {
+    details.counts.wall_seconds = seconds_since(start);
+    details.failure = "unknown exception";
+    throw;
+  }
 }
 
 }  // namespace cadinterp::builder

@@ -86,11 +86,50 @@ struct InfeasiblePoint {
   std::string message;
 };
 
+/// What a build did, filled on every exit path: on success (a copy is BuildResult::details) and
+/// when build() throws (cancelled, every point infeasible, store unreadable or unwritable, out of
+/// memory), so that a failed build still says how far it got and why. `counts` is the C report
+/// (cadinterp_build_report); that struct has no size member and cannot grow, so what it cannot
+/// carry (requests, reasons, stage times) is here.
+struct BuildReport {
+  /// The C report. After a failure: host_evaluations, store_hits and infeasible_points count what
+  /// was done before it; `samples` is the basis' sample count if the refinement finished, else the
+  /// points requested so far (points_requested); `elements` the K-d tree's leaves so far.
+  cadinterp_build_report counts{};
+  int points_requested = 0;  ///< distinct sample points the refinement asked for (store or host)
+  /// One distinct reason, with how often it occurred and the first point where it did.
+  struct Reason {
+    std::string message;
+    int count = 0;
+    std::vector<double> first_x;  ///< sample points only (empty for element reasons)
+  };
+  static constexpr std::size_t kMaxReasons = 8;
+  /// Why points were infeasible: the host's distinct messages in the order first met (points are
+  /// decided in row order, so deterministically), at most kMaxReasons; points whose message is
+  /// not among them are counted in other_infeasible_points. Sum of counts + other =
+  /// counts.infeasible_points.
+  std::vector<Reason> infeasible_reasons;
+  int other_infeasible_points = 0;
+  /// Why elements were infeasible beyond their sample points (a term that could not be mapped
+  /// into the element's canonical mesh): the mapper's distinct messages, same rules.
+  std::vector<Reason> element_reasons;
+  int other_infeasible_elements = 0;
+  /// Wall time per stage (seconds). store: opening the sample store; sampling: the refinement's
+  /// waves of sample points (store reads, host evaluations, store writes); refinement: the rest
+  /// of the adaptive run (error tests, including the mapping they need); elements: canonical
+  /// meshes and their terms mapped into them, the asset content. counts.wall_seconds is the
+  /// whole build() call; counts.host_seconds sums the host's own time over evaluations.
+  double store_seconds = 0, sampling_seconds = 0, refinement_seconds = 0, elements_seconds = 0;
+  /// "" after a successful build, else the message of the exception build() threw.
+  std::string failure;
+};
+
 struct BuildResult {
   std::unique_ptr<core::CompiledBasis> basis;
   format::AssetContent content;  ///< content.basis points to *basis
   std::vector<InfeasiblePoint> infeasible;
-  cadinterp_build_report report{};
+  cadinterp_build_report report{};  ///< == details.counts
+  BuildReport details;
   NeighbourTransferStats neighbour;  ///< cubic builds only
 };
 
@@ -100,8 +139,11 @@ struct BuildResult {
 const Mapper& default_mapper();
 
 /// Runs the build. Throws BuildCancelled, BuildInfeasible, StoreError (sample_store.h),
-/// std::invalid_argument (options).
-BuildResult build(const Host& host, const BuildOptions& options);
+/// std::invalid_argument (options). When `report` is not null it receives the build's report
+/// whatever happens, before build() returns or throws (std::invalid_argument on the options
+/// included: then only `failure` is set). BuildInfeasible's message also names the first
+/// reasons with their counts, so a caller that only shows what() still says why.
+BuildResult build(const Host& host, const BuildOptions& options, BuildReport* report = nullptr);
 
 /// What a sample store's samples are samples of: host name and identity, K, parameter names and
 /// box (a store with another fingerprint is refused).

@@ -1,5 +1,7 @@
 // The builder's C ABI (include/cadinterp/cadinterp_builder.h) over build.h. Every exported body
 // is guarded: no exception crosses the interface, and failures leave outputs untouched.
+#include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <new>
@@ -63,6 +65,8 @@ struct cadinterp_builder {
   cadinterp_progress_fn progress = nullptr;
   void* progress_user = nullptr;
   cadinterp_build_report report{};
+  cadinterp::builder::BuildReport details;  // of the last run, finished or failed
+  double write_seconds = 0;
   std::string error;
 };
 
@@ -235,23 +239,63 @@ CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* b) { delete b; }
 
 CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const char* path) {
   if (!b) return CADINTERP_E_INVALID_ARGUMENT;
-  return guard(&b->error, [&] {
+  b->details = cadinterp::builder::BuildReport{};
+  b->write_seconds = 0;
+  const cadinterp_status status = guard(&b->error, [&] {
     if (!path || !*path) throw std::invalid_argument("output path is NULL or empty");
-    cadinterp::builder::BuildResult r = cadinterp::builder::build(*b->host, b->options);
+    cadinterp::builder::BuildResult r =
+        cadinterp::builder::build(*b->host, b->options, &b->details);
+    const auto t0 = std::chrono::steady_clock::now();
     cadinterp::format::WriteOptions w;
     w.position_max_abs_error = b->options.position_max_abs_error;
     cadinterp::format::write_asset_file(r.content, w, path);
-    r.report.asset_bytes = std::filesystem::file_size(path);
-    b->report = r.report;
+    b->details.counts.asset_bytes = std::filesystem::file_size(path);
+    b->write_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    b->details.counts.wall_seconds += b->write_seconds;
     b->error.clear();
     return CADINTERP_OK;
   });
+  // On every path: a failed run still reports what it did before failing (build() fills
+  // `details` before it returns or throws).
+  b->report = b->details.counts;
+  return status;
 }
 
 CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* b,
                                                         cadinterp_build_report* out) {
   if (!b || !out) return CADINTERP_E_INVALID_ARGUMENT;
   *out = b->report;
+  return CADINTERP_OK;
+}
+
+CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder* b,
+                                                        cadinterp_build_stages* out) {
+  if (!b || !out || out->struct_size < sizeof(size_t)) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp_build_stages s;
+  std::memset(&s, 0, sizeof s);
+  s.struct_size = std::min(out->struct_size, sizeof s);
+  const cadinterp::builder::BuildReport& d = b->details;
+  s.points_requested = d.points_requested;
+  s.infeasible_reasons = static_cast<int>(d.infeasible_reasons.size());
+  s.other_infeasible_points = d.other_infeasible_points;
+  s.store_seconds = d.store_seconds;
+  s.sampling_seconds = d.sampling_seconds;
+  s.refinement_seconds = d.refinement_seconds;
+  s.elements_seconds = d.elements_seconds;
+  s.write_seconds = b->write_seconds;
+  std::memcpy(out, &s, s.struct_size);
+  return CADINTERP_OK;
+}
+
+CADINTERP_API cadinterp_status cadinterp_builder_infeasible_reason(const cadinterp_builder* b,
+                                                                   int index, const char** message,
+                                                                   int* count) {
+  if (!b || index < 0 || static_cast<std::size_t>(index) >= b->details.infeasible_reasons.size())
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const auto& r = b->details.infeasible_reasons[static_cast<std::size_t>(index)];
+  if (message) *message = r.message.c_str();
+  if (count) *count = r.count;
   return CADINTERP_OK;
 }
 

@@ -11,7 +11,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -530,6 +532,215 @@ TEST(Build, ResumesAfterKillWithoutRepeatingFinishedSamples) {
   EXPECT_EQ(repeated, 0);
   EXPECT_EQ(read_bytes(path), read_bytes(ref_path));
   for (const auto& p : {ref_path, path, store, log}) std::filesystem::remove(p);
+}
+
+// ---- The report of a build, failed or not ----------------------------------------------------
+
+// The points the host was called at, parsed back from its own log (independent of the builder).
+std::vector<std::vector<double>> logged_calls(const std::string& log) {
+  std::vector<std::vector<double>> out;
+  std::ifstream f(log);
+  std::string line;
+  while (std::getline(f, line)) {
+    std::vector<double> x;
+    const char* p = line.c_str();
+    for (char* end = nullptr;; p = end) {
+      const double v = std::strtod(p, &end);
+      if (end == p) break;
+      x.push_back(v);
+    }
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+bool in_fail_corner(const std::vector<double>& x) { return x[0] > 0.75 && x[1] > 0.75; }
+
+builder::BuildOptions small_build_options() {
+  builder::BuildOptions o;
+  o.geometry_tolerance = 2e-3;
+  o.field_tolerance = 2e-2;
+  o.max_samples = 120;
+  o.max_depth = 6;
+  o.threads = 2;
+  return o;
+}
+
+// Every point of the box lies in the host's failing corner (its regeneration refuses there, as
+// a CAD host refuses a fillet too large): the build fails, and its report still says how many
+// points were asked for and evaluated, that all were infeasible and why, and where the time
+// went; the counts agree with the host's own log of its calls.
+TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
+  for (bool throws : {false, true}) {
+    BoxHost h(2);
+    h.fail_corner = !throws;
+    h.throw_corner = throws;
+    h.log_path = temp_path("all_infeasible.log");
+    std::filesystem::remove(h.log_path);
+    h.params[0].lower = 0.8;  // the box is now inside the corner x0, x1 > 0.75
+    h.params[1].lower = 0.8;
+    const builder::Host host(h.host);
+    builder::BuildReport rep;
+    rep.counts.samples = -7;  // overwritten: the report starts afresh
+    std::string what;
+    try {
+      builder::build(host, small_build_options(), &rep);
+    } catch (const builder::BuildInfeasible& e) {
+      what = e.what();
+    }
+    const std::string host_message =
+        throws ? "regenerate threw: fillet too large"
+               : "regenerate failed (status " + std::to_string(CADINTERP_E_INFEASIBLE);
+    ASSERT_NE(what.find("failed at every sample point"), std::string::npos) << what;
+    EXPECT_NE(what.find(host_message), std::string::npos) << what;
+    EXPECT_EQ(rep.failure, what);
+    if (!throws) std::printf("[ message ] %s\n", what.c_str());
+
+    const std::vector<std::vector<double>> calls = logged_calls(h.log_path);
+    const int n = static_cast<int>(calls.size());
+    ASSERT_GE(n, 3);  // at least the box's corners and centre
+    EXPECT_EQ(h.calls.load(), n);
+    EXPECT_EQ(rep.points_requested, n);
+    EXPECT_EQ(rep.counts.host_evaluations, n);
+    EXPECT_EQ(rep.counts.store_hits, 0);
+    EXPECT_EQ(rep.counts.infeasible_points, n);
+    EXPECT_GE(rep.counts.samples, 1);
+    EXPECT_LE(rep.counts.samples, n);
+    EXPECT_GE(rep.counts.elements, 1);
+    EXPECT_EQ(rep.counts.stored_meshes, 0);
+    EXPECT_NE(what.find(std::to_string(n) + " points"), std::string::npos) << what;
+    // One reason, the host's message, counted at every point; its first point was called.
+    ASSERT_EQ(rep.infeasible_reasons.size(), 1u);
+    const builder::BuildReport::Reason& why = rep.infeasible_reasons[0];
+    EXPECT_EQ(why.message.find(host_message), 0u) << why.message;
+    EXPECT_NE(why.message.find("fillet too large"), std::string::npos) << why.message;
+    EXPECT_EQ(why.count, n);
+    EXPECT_EQ(rep.other_infeasible_points, 0);
+    EXPECT_NE(std::find(calls.begin(), calls.end(), why.first_x), calls.end());
+    EXPECT_TRUE(rep.element_reasons.empty());
+    // Time per stage: the host ran (sampling), the refinement ran; stages add up to no more
+    // than the whole call.
+    EXPECT_GT(rep.counts.host_seconds, 0.0);
+    EXPECT_GT(rep.sampling_seconds, 0.0);
+    EXPECT_GE(rep.refinement_seconds, 0.0);
+    EXPECT_GE(rep.elements_seconds, 0.0);
+    EXPECT_EQ(rep.store_seconds, 0.0);  // no store
+    EXPECT_LE(rep.sampling_seconds + rep.refinement_seconds + rep.elements_seconds,
+              rep.counts.wall_seconds * (1 + 1e-9));
+
+    // Through the C ABI: the same status and message, and the C report, the stages and the
+    // reasons still say what the failed run did.
+    const std::string path = temp_path("all_infeasible.cadi");
+    cadinterp_build_options o = small_options();
+    cadinterp_builder* b = nullptr;
+    ASSERT_EQ(cadinterp_builder_create(&h.host, &o, &b), CADINTERP_OK);
+    EXPECT_EQ(cadinterp_builder_run(b, path.c_str()), CADINTERP_E_INFEASIBLE);
+    EXPECT_NE(std::string(cadinterp_builder_error(b)).find("fillet too large"), std::string::npos)
+        << cadinterp_builder_error(b);
+    EXPECT_FALSE(std::filesystem::exists(path));
+    cadinterp_build_report c{};
+    ASSERT_EQ(cadinterp_builder_report(b, &c), CADINTERP_OK);
+    EXPECT_GE(c.host_evaluations, 3);
+    EXPECT_EQ(c.infeasible_points, c.host_evaluations);
+    EXPECT_GE(c.samples, 1);
+    EXPECT_GT(c.wall_seconds, 0.0);
+    cadinterp_build_stages st;
+    std::memset(&st, 0, sizeof st);
+    st.struct_size = sizeof st;
+    ASSERT_EQ(cadinterp_builder_stages(b, &st), CADINTERP_OK);
+    EXPECT_EQ(st.points_requested, c.host_evaluations);
+    EXPECT_EQ(st.infeasible_reasons, 1);
+    EXPECT_GT(st.sampling_seconds, 0.0);
+    EXPECT_EQ(st.write_seconds, 0.0);  // nothing was written
+    const char* msg = nullptr;
+    int count = 0;
+    ASSERT_EQ(cadinterp_builder_infeasible_reason(b, 0, &msg, &count), CADINTERP_OK);
+    EXPECT_NE(std::string(msg).find("fillet too large"), std::string::npos) << msg;
+    EXPECT_EQ(count, c.infeasible_points);
+    EXPECT_EQ(cadinterp_builder_infeasible_reason(b, 1, &msg, &count),
+              CADINTERP_E_INVALID_ARGUMENT);
+    // A caller compiled against a smaller struct gets only the bytes it knows.
+    cadinterp_build_stages small;
+    std::memset(&small, 0xab, sizeof small);
+    small.struct_size = offsetof(cadinterp_build_stages, infeasible_reasons);
+    ASSERT_EQ(cadinterp_builder_stages(b, &small), CADINTERP_OK);
+    EXPECT_EQ(small.points_requested, st.points_requested);
+    unsigned char untouched;
+    std::memcpy(&untouched, reinterpret_cast<const unsigned char*>(&small) + small.struct_size, 1);
+    EXPECT_EQ(untouched, 0xab);
+    cadinterp_builder_destroy(b);
+    std::filesystem::remove(h.log_path);
+  }
+}
+
+// A build with failures in part of the box succeeds; its reasons count exactly the host's calls
+// in the failing corner (from the host's log), and the report equals the C one.
+TEST(BuildReport, CountsReasonsOfAPartlyInfeasibleBuild) {
+  BoxHost h(2);
+  h.fail_corner = true;
+  h.log_path = temp_path("partly.log");
+  std::filesystem::remove(h.log_path);
+  builder::BuildReport rep;
+  const builder::BuildResult b = builder::build(builder::Host(h.host), small_build_options(), &rep);
+  const std::vector<std::vector<double>> calls = logged_calls(h.log_path);
+  const int failing = static_cast<int>(std::count_if(calls.begin(), calls.end(), in_fail_corner));
+  ASSERT_GT(failing, 0);
+  ASSERT_LT(failing, static_cast<int>(calls.size()));
+  EXPECT_TRUE(rep.failure.empty()) << rep.failure;
+  EXPECT_EQ(rep.points_requested, static_cast<int>(calls.size()));
+  EXPECT_EQ(rep.counts.host_evaluations, static_cast<int>(calls.size()));
+  EXPECT_EQ(rep.counts.infeasible_points, failing);
+  ASSERT_EQ(rep.infeasible_reasons.size(), 1u);
+  EXPECT_EQ(rep.infeasible_reasons[0].count, failing);
+  EXPECT_TRUE(in_fail_corner(rep.infeasible_reasons[0].first_x));
+  EXPECT_NE(rep.infeasible_reasons[0].message.find("fillet too large"), std::string::npos);
+  // The same report in the result, its C part field for field.
+  EXPECT_EQ(b.details.points_requested, rep.points_requested);
+  EXPECT_EQ(b.details.infeasible_reasons.size(), 1u);
+  EXPECT_EQ(b.report.samples, rep.counts.samples);
+  EXPECT_EQ(b.report.elements, rep.counts.elements);
+  EXPECT_EQ(b.report.infeasible_points, rep.counts.infeasible_points);
+  EXPECT_EQ(b.report.infeasible_elements, rep.counts.infeasible_elements);
+  EXPECT_EQ(b.report.stored_meshes, rep.counts.stored_meshes);
+  EXPECT_EQ(b.report.wall_seconds, rep.counts.wall_seconds);
+  EXPECT_GT(rep.counts.stored_meshes, 0);
+  EXPECT_GT(rep.counts.elements, rep.counts.infeasible_elements);
+  EXPECT_GT(rep.elements_seconds, 0.0);
+  std::filesystem::remove(h.log_path);
+}
+
+// A store that cannot be opened (its directory does not exist) and a cancelled build: the report
+// names the failure and keeps what was done before it.
+TEST(BuildReport, IsFilledWhenTheStoreFailsOrTheBuildIsCancelled) {
+  BoxHost h(2);
+  const builder::Host host(h.host);
+  builder::BuildOptions o = small_build_options();
+  o.store_path = "/nonexistent-cadinterp-dir/store.sqlite";
+  builder::BuildReport rep;
+  EXPECT_THROW(builder::build(host, o, &rep), builder::StoreError);
+  // (sample_store.cpp's message does not name the path; the CLI prints it with --store.)
+  EXPECT_EQ(rep.failure.find("sample store: open"), 0u) << rep.failure;
+  EXPECT_EQ(rep.counts.host_evaluations, 0);
+  EXPECT_EQ(rep.points_requested, 0);
+  EXPECT_EQ(h.calls.load(), 0);
+  EXPECT_GT(rep.counts.wall_seconds, 0.0);
+  EXPECT_GE(rep.store_seconds, 0.0);
+
+  o.store_path.clear();
+  int seen = 0;
+  o.progress = [&seen](const cadinterp_progress& p) {
+    ++seen;
+    return p.samples_done >= 6;
+  };
+  EXPECT_THROW(builder::build(host, o, &rep), builder::BuildCancelled);
+  EXPECT_EQ(rep.failure, "build cancelled");
+  EXPECT_GE(rep.counts.host_evaluations, 6);
+  EXPECT_EQ(rep.counts.host_evaluations, h.calls.load());
+  EXPECT_GE(rep.points_requested, rep.counts.host_evaluations);
+  EXPECT_EQ(rep.counts.infeasible_points, 0);
+  EXPECT_TRUE(rep.infeasible_reasons.empty());
+  EXPECT_GT(rep.sampling_seconds, 0.0);
+  EXPECT_GT(seen, 0);
 }
 
 }  // namespace

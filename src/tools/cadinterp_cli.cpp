@@ -1397,8 +1397,39 @@ int cmd_build(const std::vector<std::string>& args) {
                    : ("finished samples are kept in " + store + ": run the same command to resume")
                          .c_str())));
   }
-  if (s != CADINTERP_OK)
+  cadinterp_build_stages st;
+  std::memset(&st, 0, sizeof st);
+  st.struct_size = sizeof st;
+  cadinterp_builder_stages(builder.get(), &st);
+  // What the run did, also when it failed (cadinterp_builder_report covers every exit path).
+  auto print_summary = [&](std::FILE* out) {
+    std::fprintf(out, "  samples            %d (points requested %d, host evaluations %d, from the "
+                 "store %d, infeasible %d)\n",
+                 r.samples, st.points_requested, r.host_evaluations, r.store_hits,
+                 r.infeasible_points);
+    for (int i = 0; i < st.infeasible_reasons; ++i) {
+      const char* message = nullptr;
+      int count = 0;
+      if (cadinterp_builder_infeasible_reason(builder.get(), i, &message, &count) == CADINTERP_OK)
+        std::fprintf(out, "    infeasible x%-5d %s\n", count, message);
+    }
+    if (st.other_infeasible_points > 0)
+      std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
+    std::fprintf(out, "  elements           %d (infeasible %d)\n", r.elements,
+                 r.infeasible_elements);
+    std::fprintf(out,
+                 "  stages             store %s, sampling %s, refinement %s, elements %s, "
+                 "writing %s\n",
+                 human_seconds(st.store_seconds).c_str(), human_seconds(st.sampling_seconds).c_str(),
+                 human_seconds(st.refinement_seconds).c_str(),
+                 human_seconds(st.elements_seconds).c_str(),
+                 human_seconds(st.write_seconds).c_str());
+  };
+  if (s != CADINTERP_OK) {
+    std::fprintf(stderr, "build summary (failed after %s)\n", human_seconds(wall).c_str());
+    print_summary(stderr);
     throw RuntimeFailure("build failed: " + describe(s, cadinterp_builder_error(builder.get())));
+  }
   if (!quiet)
     std::fprintf(stderr, "%sdone: %d samples, %d elements in %s\n",
                  progress.tty ? "" : "progress: ", r.samples, r.elements,
@@ -1407,9 +1438,7 @@ int cmd_build(const std::vector<std::string>& args) {
   std::printf("build summary\n");
   std::printf("  asset              %s, %s (%llu bytes)\n", output.c_str(),
               human_bytes(r.asset_bytes).c_str(), static_cast<unsigned long long>(r.asset_bytes));
-  std::printf("  samples            %d (host evaluations %d, from the store %d, infeasible %d)\n",
-              r.samples, r.host_evaluations, r.store_hits, r.infeasible_points);
-  std::printf("  elements           %d (infeasible %d)\n", r.elements, r.infeasible_elements);
+  print_summary(stdout);
   std::printf("  stored meshes      %d\n", r.stored_meshes);
   std::printf("  max error          %.3g x the target (%s)\n", r.max_error,
               r.max_error <= 1 ? "met" : "not met");
