@@ -718,8 +718,8 @@ TEST(BuildReport, IsFilledWhenTheStoreFailsOrTheBuildIsCancelled) {
   o.store_path = "/nonexistent-cadinterp-dir/store.sqlite";
   builder::BuildReport rep;
   EXPECT_THROW(builder::build(host, o, &rep), builder::StoreError);
-  // (sample_store.cpp's message does not name the path; the CLI prints it with --store.)
   EXPECT_EQ(rep.failure.find("sample store: open"), 0u) << rep.failure;
+  EXPECT_NE(rep.failure.find(o.store_path), std::string::npos) << rep.failure;
   EXPECT_EQ(rep.counts.host_evaluations, 0);
   EXPECT_EQ(rep.points_requested, 0);
   EXPECT_EQ(h.calls.load(), 0);

@@ -81,6 +81,14 @@ SampleStore::SampleStore(const std::string& path, const std::string& fingerprint
     check(sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO samples(x, sample) VALUES(?, ?)", -1,
                              &put_, nullptr),
           "prepare");
+  } catch (const StoreError& e) {
+    sqlite3_finalize(get_);
+    sqlite3_finalize(put_);
+    sqlite3_close(db_);
+    // SQLite's messages do not name the file; a user with several stores needs to know which.
+    if (e.kind == StoreError::Kind::Io)
+      throw StoreError(e.kind, std::string(e.what()) + " (store '" + path + "')");
+    throw;
   } catch (...) {
     sqlite3_finalize(get_);
     sqlite3_finalize(put_);
