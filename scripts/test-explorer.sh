@@ -6,7 +6,8 @@
 #     --fps-large  the same on a 90k-vertex bracket (cells=32; its build takes ~40 s)
 # Each also prints the page's per-move work without a browser (test/update-bench.mjs).
 # Environment: BUILD_DIR (default build/release; configured and built here if needed, targets
-# cadinterp_cli and cadinterp_explorer_page only), JOBS (default 2).
+# cadinterp_cli and cadinterp_explorer_page only), JOBS (default 2), EXPLORER_WASM_DIR (the
+# WebAssembly runtime the page and the benchmarks use, default build/wasm).
 # Needs node >= 18, Debian's chromium (/usr/bin/chromium), the npm registry once (`npm install`), and
 # the WebAssembly runtime in build/wasm (scripts/build-wasm.sh, run here when it is missing).
 # Screenshots and measurements land in $BUILD_DIR/explorer-test/.
@@ -33,11 +34,15 @@ if [ ! -f $explorer/node_modules/.package-lock.json ] ||
    [ $explorer/package-lock.json -nt $explorer/node_modules/.package-lock.json ]; then
   (cd $explorer && npm install --no-audit --no-fund)
 fi
-if [ ! -f build/wasm/cadinterp.mjs ] || [ ! -f build/wasm/cadinterp_wasm.wasm ]; then
-  if [ -x scripts/build-wasm.sh ]; then
+wasm_dir=${EXPLORER_WASM_DIR:-build/wasm}
+if [ ! -f "$wasm_dir/cadinterp.mjs" ] || [ ! -f "$wasm_dir/cadinterp_wasm.wasm" ]; then
+  if [ -n "${EXPLORER_WASM_DIR:-}" ]; then
+    echo "test-explorer: EXPLORER_WASM_DIR=$EXPLORER_WASM_DIR lacks cadinterp.mjs / cadinterp_wasm.wasm" >&2
+    exit 1
+  elif [ -x scripts/build-wasm.sh ]; then
     scripts/build-wasm.sh
   else
-    echo "test-explorer: build/wasm/ lacks the WebAssembly runtime and there is no scripts/build-wasm.sh" >&2
+    echo "test-explorer: $wasm_dir/ lacks the WebAssembly runtime and there is no scripts/build-wasm.sh" >&2
     exit 1
   fi
 fi
@@ -75,10 +80,14 @@ if [ "$fps" = 1 ]; then
   }
   small=$(fps_asset bracket_cells4 4 150)
   node $explorer/test/fps.mjs "$small" 3 | tee "$work/fps-small.json"
-  node $explorer/test/update-bench.mjs "$small" build/wasm 100 | tee "$work/update-small.json"
+  node $explorer/test/update-bench.mjs "$small" "$wasm_dir" 100 | tee "$work/update-small.json"
   if [ "$fps_large" = 1 ]; then
     large=$(fps_asset bracket_cells32 32 20)  # 90321 vertices, 491520 tets; ~40 s to build
-    node $explorer/test/fps.mjs "$large" 3 | tee "$work/fps-large.json"
-    node $explorer/test/update-bench.mjs "$large" build/wasm 50 | tee "$work/update-large.json"
+    # The drag, then the unchanged mesh drawn every frame (what drawing alone costs: the drag's
+    # ceiling on software GL), then the same drag as the page did before (the whole mesh
+    # evaluated per move, properties requested back to back: ?subset=0&propsms=0).
+    node $explorer/test/fps.mjs "$large" 3 drag,render | tee "$work/fps-large.json"
+    EXPLORER_QUERY='?subset=0&propsms=0' node $explorer/test/fps.mjs "$large" 3 drag | tee "$work/fps-large-before.json"
+    node $explorer/test/update-bench.mjs "$large" "$wasm_dir" 50 | tee "$work/update-large.json"
   fi
 fi

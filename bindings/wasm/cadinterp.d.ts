@@ -80,6 +80,13 @@ export interface Asset {
   errorEstimate(x: Point): number;
   setCacheBudget(bytes: number): void;
   eval(x: Point, fieldNames?: string[] | null, opts?: { copy?: boolean }): Mesh;
+  /** eval restricted to chosen vertex and tet ids: positions/fields hold one row per id. */
+  evalSubset(
+    x: Point,
+    subset: { vertices?: ArrayLike<number>; tets?: ArrayLike<number> },
+    fieldNames?: string[] | null,
+    opts?: { copy?: boolean },
+  ): Mesh;
   grad(x: Point, fieldNames?: string[] | null, opts?: { copy?: boolean }): MeshGrad;
   vjp(x: Point, dPositions: ArrayLike<number> | null, fieldAdjoints?: Record<string, ArrayLike<number>> | null): Float64Array;
   properties(x: Point, opts?: { density?: number; direction?: ArrayLike<number>; grad?: boolean }): Properties;

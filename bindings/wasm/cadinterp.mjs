@@ -142,7 +142,8 @@ class Library {
 
 // Frees what an asset holds in the heap if it is garbage-collected without close().
 const finalizer = typeof FinalizationRegistry === 'function'
-  ? new FinalizationRegistry(({ mod, ws, asset, data, scratch }) => {
+  ? new FinalizationRegistry(({ mod, ws, asset, data, scratch, ids }) => {
+      if (ids) mod._free(ids);
       mod._cadinterp_workspace_destroy(ws);
       mod._cadinterp_close(asset);
       mod._free(data);
@@ -173,6 +174,9 @@ class Asset {
   #fieldInfo = [];
   #vertexCounts = new Map(); // element -> { v, t } seen by eval/grad (vjp's input lengths)
   #token = {};
+  #ids = 0; // heap block for evalSubset's id lists (grown, never shrunk; freed by close())
+  #idsCap = 0; // its size in uint32
+  #held = null; // what the finalizer frees
 
   constructor(mod, u8) {
     this.#mod = mod;
@@ -293,7 +297,9 @@ class Asset {
       this.#release();
       throw e;
     }
-    finalizer?.register(this, { mod: m, ws, asset, data, scratch }, this.#token);
+    // Mutable: evalSubset's id block is recorded here when it is (re)allocated.
+    this.#held = { mod: m, ws, asset, data, scratch, ids: 0 };
+    finalizer?.register(this, this.#held, this.#token);
   }
 
   // Throws the CadinterpError of a failed call (message from the workspace, or `what`).
@@ -411,6 +417,88 @@ class Asset {
       tetCount: t,
       triangleCount: f,
       positions: view(Float32Array, u32[o + 7], 3 * v),
+      tets: view(Uint32Array, u32[o + 4], 4 * t),
+      triangles: view(Uint32Array, u32[o + 5], 3 * f),
+      triangleTags: view(Int32Array, u32[o + 6], f),
+      fields,
+    };
+  }
+
+  /**
+   * eval at x restricted to chosen vertices and tets (cadinterp_eval_subset): positions (and
+   * per-vertex fields) of `vertices` only, per-tet fields of `tets` only, row i for id i of the
+   * list; the topology and counts are the whole mesh's, as from eval. For viewers that draw the
+   * boundary: the blend then touches a fraction of the mesh. Ids are checked against the element
+   * holding x (CADINTERP_E_OUT_OF_RANGE names the first bad one).
+   * @param {{vertices?: Uint32Array|number[], tets?: Uint32Array|number[]}} subset
+   */
+  evalSubset(x, subset, fieldNames, opts = {}) {
+    const m = this.#mod;
+    const px = this.#putX(x, 'evalSubset');
+    const { p: pf, idx } = this.#putFields(fieldNames, 'evalSubset');
+    const vs = subset?.vertices ?? [], ts = subset?.tets ?? [];
+    for (const [what, a] of [['vertices', vs], ['tets', ts]]) {
+      if (a == null || typeof a.length !== 'number') {
+        throw new CadinterpError(E_INVALID_ARGUMENT, `evalSubset: subset.${what} must be an array of ids`);
+      }
+    }
+    const nv = vs.length, nt = ts.length;
+    if (nv + nt > this.#idsCap) {
+      // Views of this heap (an earlier result passed back as ids) would be detached if the
+      // allocation grows the memory: copied out first.
+      const keep = (a) => (a.buffer === m.HEAPU8.buffer ? a.slice() : a);
+      const v2 = keep(vs), t2 = keep(ts);
+      if (this.#ids) m._free(this.#ids);
+      this.#ids = 0;
+      this.#idsCap = 0;
+      if (this.#held) this.#held.ids = 0;
+      const cap = Math.max(nv + nt, Math.ceil(1.25 * (nv + nt)), 16);
+      const p = m._malloc(4 * cap);
+      if (!p) throw new CadinterpError(E_OUT_OF_MEMORY, `evalSubset: cannot allocate ${cap} ids`);
+      this.#ids = p;
+      this.#idsCap = cap;
+      if (this.#held) this.#held.ids = p;
+      return this.evalSubset(x, { vertices: v2, tets: t2 }, fieldNames, opts);
+    }
+    const pv = this.#ids, pt = this.#ids + 4 * nv;
+    // Non-integers and negatives would wrap silently in a Uint32Array: refused here instead.
+    const put = (a, p, what) => {
+      if (a instanceof Uint32Array) {
+        m.HEAPU32.set(a, p >> 2);
+        return;
+      }
+      const u32 = m.HEAPU32;
+      for (let i = 0; i < a.length; ++i) {
+        const v = a[i];
+        if (!Number.isInteger(v) || v < 0 || v > 0xffffffff) {
+          throw new CadinterpError(E_INVALID_ARGUMENT, `evalSubset: subset.${what}[${i}] is not a vertex or tet id: ${v}`);
+        }
+        u32[(p >> 2) + i] = v;
+      }
+    };
+    put(vs, pv, 'vertices');
+    put(ts, pt, 'tets');
+    const out = this.#scratch + S_OUT;
+    this.#check(m._cadinterp_eval_subset(this.#ws, px, pv, nv, pt, nt, pf, idx.length, out), null);
+    const u32 = m.HEAPU32;
+    const o = out >> 2;
+    const element = m.HEAP32[o];
+    const v = u32[o + 1], t = u32[o + 2], f = u32[o + 3];
+    this.#vertexCounts.set(element, { v, t });
+    const buf = m.HEAPU8.buffer;
+    const copy = !!opts?.copy;
+    const view = (Type, p, n) => (copy ? new Type(buf, p, n).slice() : new Type(buf, p, n));
+    const fields = {};
+    const fp = u32[o + 8] >> 2;
+    idx.forEach((fi, k) => {
+      fields[this.#fieldInfo[fi].name] = view(Float32Array, u32[fp + k], this.#fieldLength(fi, nv, nt));
+    });
+    return {
+      element,
+      vertexCount: v,
+      tetCount: t,
+      triangleCount: f,
+      positions: view(Float32Array, u32[o + 7], 3 * nv),
       tets: view(Uint32Array, u32[o + 4], 4 * t),
       triangles: view(Uint32Array, u32[o + 5], 3 * f),
       triangleTags: view(Int32Array, u32[o + 6], f),
@@ -566,7 +654,8 @@ class Asset {
     if (this.#asset) m._cadinterp_close(this.#asset);
     if (this.#data) m._free(this.#data);
     if (this.#scratch) m._free(this.#scratch);
-    this.#ws = this.#asset = this.#data = this.#scratch = 0;
+    if (this.#ids) m._free(this.#ids);
+    this.#ws = this.#asset = this.#data = this.#scratch = this.#ids = this.#idsCap = 0;
   }
 
   /** Frees the asset's memory. Idempotent; any later call throws CADINTERP_E_INVALID_ARGUMENT. */

@@ -252,6 +252,32 @@ CADINTERP_API cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const dou
                                               const int* fields, int field_count,
                                               cadinterp_mesh* out);
 
+/**
+ * cadinterp_eval restricted to chosen vertices and tets: the same blend (Eq. 3, same weights,
+ * same term order) applied only to the rows asked for, for viewers that draw the boundary
+ * surface and need neither the interior vertices nor every tet's field value (on a tet mesh the
+ * boundary holds a small part of the vertices: 16k of 90k on the bracket of examples/explorer).
+ *
+ * `out` is filled as by cadinterp_eval (element, whole-mesh counts and topology), except that
+ * out->positions holds vertex_subset_count rows of 3 (row i: vertex vertices[i]) and each
+ * requested field vertex_subset_count rows (per-vertex fields, row i: vertices[i]) or
+ * tet_subset_count rows (per-tet fields, row i: tets[i]) of its components. Ids may repeat and
+ * come in any order. Rows equal cadinterp_eval's up to float rounding: bit for bit with the
+ * portable kernel (WebAssembly); on x86-64 with AVX2 the whole-mesh kernel fuses multiply-adds.
+ * The ids are checked against the element holding x (its #V and #T, which
+ * only a previous call can tell: cadinterp_eval, or this one with empty subsets).
+ * @param[in]  vertices  vertex ids (may be NULL if vertex_subset_count is 0)
+ * @param[in]  tets      tet ids (may be NULL if tet_subset_count is 0)
+ * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count,
+ *         CADINTERP_E_OUT_OF_RANGE for an id >= #V (or #T) of the element holding x
+ */
+CADINTERP_API cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
+                                                     const uint32_t* vertices,
+                                                     size_t vertex_subset_count,
+                                                     const uint32_t* tets, size_t tet_subset_count,
+                                                     const int* fields, int field_count,
+                                                     cadinterp_mesh* out);
+
 /** Derivatives of an evaluated mesh with respect to the parameters (Eq. 13). */
 typedef struct cadinterp_mesh_grad {
   int element;

@@ -37,6 +37,13 @@ int main(void) {
   CHECK(cadinterp_dim(NULL) == 0);
   CHECK(cadinterp_field_unit(NULL, 0, &unit) == CADINTERP_E_INVALID_ARGUMENT);
   CHECK(strcmp(unit, "untouched") == 0);
+  {
+    cadinterp_mesh m;
+    const uint32_t ids[1] = {0};
+    const double x[1] = {0.0};
+    CHECK(cadinterp_eval_subset(NULL, x, ids, 1, NULL, 0, NULL, 0, &m) ==
+          CADINTERP_E_INVALID_ARGUMENT);
+  }
   cadinterp_close(NULL);
   cadinterp_workspace_destroy(NULL);
 

@@ -16,6 +16,7 @@
 #include <fuzzer/FuzzedDataProvider.h>
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstddef>
@@ -322,8 +323,13 @@ void Run::queries() {
             static_cast<flatbuffers::uoffset_t>(elements_) == index_->elements()->size(),
         "element count %d", elements_);
   int major = -1, minor = -1;
-  CHECK(cadinterp_asset_format(a_, &major, &minor) == CADINTERP_OK && major == 1 && minor == 0,
-        "asset format %d.%d", major, minor);
+  // Format 1.1 added FieldDesc.unit, and a file is 1.1 exactly when some field has a unit.
+  bool any_unit = false;
+  if (index_->fields())
+    for (const auto* f : *index_->fields()) any_unit = any_unit || (f->unit() && f->unit()->size());
+  CHECK(cadinterp_asset_format(a_, &major, &minor) == CADINTERP_OK && major == 1 &&
+            minor == (any_unit ? 1 : 0),
+        "asset format %d.%d (%s field units)", major, minor, any_unit ? "with" : "without");
 
   for (int i = 0; i < K_; ++i) {
     cadinterp_parameter_info p;
@@ -529,6 +535,40 @@ void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCop
       sizes[static_cast<std::size_t>(i)] = field_values(s.fields[static_cast<std::size_t>(i)], m);
   const int* fields = s.fields.empty() ? nullptr : s.fields.data();
   const int count = s.field_count;
+
+  // eval_subset without fields: rows of the asked vertices are the full eval's rows up to float
+  // rounding (same weights and term order; the full eval's vector kernel may fuse multiply-adds
+  // where the row kernel does not); an id past #V is refused with the output untouched.
+  if (base == CADINTERP_OK && V > 0) {
+    float scale = 1.0f;
+    for (float p : base_positions) scale = std::max(scale, std::fabs(p));
+    const std::uint32_t ids[4] = {V - 1, 0, V / 2, V - 1};
+    cadinterp_mesh sub;
+    poison(&sub);
+    cadinterp_status st = cadinterp_eval_subset(ws, x, ids, 4, nullptr, 0, nullptr, 0, &sub);
+    if (st == CADINTERP_OK) {
+      CHECK(sub.vertex_count == V, "eval_subset: #V %u, eval %u", sub.vertex_count, V);
+      for (int i = 0; i < 4; ++i)
+        for (int k = 0; k < 3; ++k) {
+          const float got = sub.positions[3 * i + k];
+          const float want = base_positions[3 * std::size_t(ids[i]) + std::size_t(k)];
+          CHECK(std::fabs(got - want) <= 1e-4f * scale, "eval_subset row %d (vertex %u) %g, eval %g",
+                i, ids[i], double(got), double(want));
+        }
+    } else {
+      CHECK(st == CADINTERP_E_CHECKSUM || st == CADINTERP_E_CORRUPT_BLOB,
+            "eval_subset after a successful eval: %s", name(st));
+      check_failure(ws, st, "eval_subset");
+      CHECK(poisoned(&sub), "eval_subset wrote its output on failure");
+    }
+    const std::uint32_t past = V;
+    poison(&sub);
+    st = cadinterp_eval_subset(ws, x, &past, 1, nullptr, 0, nullptr, 0, &sub);
+    CHECK(st == CADINTERP_E_OUT_OF_RANGE || st == CADINTERP_E_CHECKSUM ||
+              st == CADINTERP_E_CORRUPT_BLOB,
+          "eval_subset with vertex #V: %s", name(st));
+    CHECK(poisoned(&sub), "eval_subset wrote its output on failure");
+  }
 
   // Field arrays are decoded by the first call that reads them, apart from the shape, and a
   // failed decode keeps nothing: so every call that reads fields must report the same status

@@ -3,11 +3,13 @@
 // properties and their gradients, and the failure statuses.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <random>
 #include <set>
+#include <string>
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
@@ -163,6 +165,112 @@ TEST(Runtime, EvalMatchesTheBasisBlendAndTheHost) {
                 g == cadinterp::core::Degree::Linear ? "linear" : "cubic", worst_host);
     EXPECT_LT(worst_host, 1e-2);
   }
+}
+
+// eval_subset against the full eval at the same x: the boundary vertices (shuffled, one
+// repeated) and a random subset of tets, for both degrees; every row equals the full mesh's row
+// of the same id (same blend, same summation order; only fused multiply-adds of the AVX2 kernel
+// may move the last bits of the full eval), and the whole-mesh data match.
+TEST(Runtime, EvalSubsetMatchesFullEvalRowByRow) {
+  for (auto g : {cadinterp::core::Degree::Linear, cadinterp::core::Degree::Cubic}) {
+    const auto o = open_synthetic(spec(3, g));
+    cadinterp_workspace* full_ws = nullptr;
+    ASSERT_EQ(cadinterp_workspace_create(o->asset, &full_ws), CADINTERP_OK);
+    std::mt19937_64 rng(11);
+    const int fields[2] = {1, 0};  // per tet, then per vertex: request order, not index order
+    for (int i = 0; i < 40; ++i) {
+      double x[3];
+      for (double& v : x) v = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+      cadinterp_mesh full;
+      ASSERT_EQ(cadinterp_eval(full_ws, x, fields, 2, &full), CADINTERP_OK);
+      std::set<std::uint32_t> boundary(full.triangles, full.triangles + 3 * full.triangle_count);
+      std::vector<std::uint32_t> vids(boundary.begin(), boundary.end());
+      ASSERT_LT(vids.size(), full.vertex_count) << "the box should have interior vertices";
+      std::shuffle(vids.begin(), vids.end(), rng);
+      vids.push_back(vids.front());
+      std::vector<std::uint32_t> tids;
+      for (std::uint32_t t = 0; t < full.tet_count; ++t)
+        if (rng() % 3 == 0) tids.push_back(t);
+      tids.push_back(full.tet_count - 1);
+      cadinterp_mesh sub;
+      ASSERT_EQ(cadinterp_eval_subset(o->ws, x, vids.data(), vids.size(), tids.data(),
+                                      tids.size(), fields, 2, &sub),
+                CADINTERP_OK)
+          << cadinterp_workspace_error(o->ws);
+      ASSERT_EQ(sub.element, full.element);
+      ASSERT_EQ(sub.vertex_count, full.vertex_count);
+      ASSERT_EQ(sub.tet_count, full.tet_count);
+      ASSERT_EQ(sub.triangle_count, full.triangle_count);
+      ASSERT_EQ(std::memcmp(sub.triangles, full.triangles, 12u * full.triangle_count), 0);
+      ASSERT_EQ(std::memcmp(sub.tets, full.tets, 16u * full.tet_count), 0);
+      for (std::size_t k = 0; k < vids.size(); ++k)
+        for (int c = 0; c < 3; ++c) {
+          const float want = full.positions[3 * vids[k] + static_cast<std::size_t>(c)];
+          ASSERT_NEAR(sub.positions[3 * k + static_cast<std::size_t>(c)], want,
+                      1e-6f * std::max(1.0f, std::abs(want)))
+              << "vertex " << vids[k];
+        }
+      for (std::size_t k = 0; k < tids.size(); ++k) {
+        const float want = full.fields[0][tids[k]];
+        ASSERT_NEAR(sub.fields[0][k], want, 1e-6f * std::max(1.0f, std::abs(want)));
+      }
+      for (std::size_t k = 0; k < vids.size(); ++k) {
+        const float want = full.fields[1][vids[k]];
+        ASSERT_NEAR(sub.fields[1][k], want, 1e-6f * std::max(1.0f, std::abs(want)));
+      }
+    }
+    // Empty subsets: only the element and the whole-mesh counts and topology.
+    const double x[3] = {0.3, 0.6, 0.2};
+    cadinterp_mesh full, sub;
+    ASSERT_EQ(cadinterp_eval(full_ws, x, nullptr, 0, &full), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_eval_subset(o->ws, x, nullptr, 0, nullptr, 0, nullptr, 0, &sub),
+              CADINTERP_OK);
+    EXPECT_EQ(sub.element, full.element);
+    EXPECT_EQ(sub.vertex_count, full.vertex_count);
+    EXPECT_EQ(sub.tet_count, full.tet_count);
+    cadinterp_workspace_destroy(full_ws);
+  }
+}
+
+TEST(Runtime, EvalSubsetRefusesBadIdsAndLeavesItsOutputUntouched) {
+  SyntheticSpec s = spec(2, cadinterp::core::Degree::Linear);
+  s.infeasible_corner = true;
+  const auto o = open_synthetic(s);
+  const double x[2] = {0.2, 0.3};
+  cadinterp_mesh full;
+  ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &full), CADINTERP_OK);
+  const std::uint32_t nv = full.vertex_count, nt = full.tet_count;
+  cadinterp_mesh m;
+  std::memset(&m, 0x5a, sizeof m);
+  const cadinterp_mesh before = m;
+  const int fields[1] = {1};
+  const std::uint32_t good[2] = {0, nv - 1}, bad_v[3] = {0, nv, 1}, bad_t[1] = {nt};
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, x, bad_v, 3, nullptr, 0, nullptr, 0, &m),
+            CADINTERP_E_OUT_OF_RANGE);
+  EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("vertices[1]"), std::string::npos)
+      << cadinterp_workspace_error(o->ws);
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, bad_t, 1, fields, 1, &m),
+            CADINTERP_E_OUT_OF_RANGE);
+  EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("tets[0]"), std::string::npos);
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, x, nullptr, 2, nullptr, 0, nullptr, 0, &m),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, nullptr, 1, nullptr, 0, &m),
+            CADINTERP_E_INVALID_ARGUMENT);
+  const int bad_field[1] = {7};
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, nullptr, 0, bad_field, 1, &m),
+            CADINTERP_E_INVALID_ARGUMENT);
+  const double corner[2] = {0.99, 0.99}, outside[2] = {-0.5, 0.5};
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, corner, good, 2, nullptr, 0, nullptr, 0, &m),
+            CADINTERP_E_INFEASIBLE);
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, outside, good, 2, nullptr, 0, nullptr, 0, &m),
+            CADINTERP_E_OUTSIDE_DOMAIN);
+  EXPECT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, nullptr, 0, nullptr, 0, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_eval_subset(nullptr, x, good, 2, nullptr, 0, nullptr, 0, &m),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(std::memcmp(&m, &before, sizeof m), 0) << "a failed eval_subset wrote its output";
+  ASSERT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, nullptr, 0, nullptr, 0, &m), CADINTERP_OK);
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
 }
 
 // Central differences of eval, inside one element (the cubic asset is C2 anyway).

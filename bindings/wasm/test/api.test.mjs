@@ -228,6 +228,53 @@ function meshProperties(m, density, dir) {
   return { volume: vol, mass: density * vol, area, frontalArea: front, centroid, inertia };
 }
 
+test('evalSubset returns the rows of eval for the ids asked, and refuses bad ids', () => {
+  const a = lib.open(caseBytes('valid', 'k2_cubic'));
+  try {
+    const r = rng(7);
+    for (let trial = 0; trial < 5; ++trial) {
+      const x = inner(a, [r(), r()]);
+      const full = a.eval(x, ['stress', 'temperature'], { copy: true });
+      // The boundary vertices in reverse order with one repeated, every third tet.
+      const vertices = Uint32Array.from(new Set(full.triangles)).reverse();
+      const vlist = [...vertices, vertices[0]];
+      const tets = [];
+      for (let t = 0; t < full.tetCount; t += 3) tets.push(t);
+      for (const vs of [Uint32Array.from(vlist), vlist]) {
+        const m = a.evalSubset(x, { vertices: vs, tets }, ['stress', 'temperature'], { copy: true });
+        assert.equal(m.element, full.element);
+        assert.equal(m.vertexCount, full.vertexCount);
+        assert.equal(m.tetCount, full.tetCount);
+        assert.deepEqual(m.triangles, full.triangles);
+        assert.equal(m.positions.length, 3 * vlist.length);
+        assert.equal(m.fields.temperature.length, vlist.length);
+        assert.equal(m.fields.stress.length, tets.length);
+        // Same kernel order, no fused multiply-adds in WebAssembly: equal, not just close.
+        vlist.forEach((v, i) => {
+          for (let c = 0; c < 3; ++c) assert.equal(m.positions[3 * i + c], full.positions[3 * v + c]);
+          assert.equal(m.fields.temperature[i], full.fields.temperature[v]);
+        });
+        tets.forEach((t, i) => assert.equal(m.fields.stress[i], full.fields.stress[t]));
+      }
+    }
+    const x = inner(a, [0.3, 0.6]);
+    const { vertexCount, tetCount } = a.eval(x, []);
+    const empty = a.evalSubset(x, {}, []);
+    assert.equal(empty.vertexCount, vertexCount);
+    assert.equal(empty.positions.length, 0);
+    throwsStatus(() => a.evalSubset(x, { vertices: [0, vertexCount] }, []), 'CADINTERP_E_OUT_OF_RANGE');
+    throwsStatus(() => a.evalSubset(x, { tets: Uint32Array.of(tetCount) }, ['stress']), 'CADINTERP_E_OUT_OF_RANGE');
+    throwsStatus(() => a.evalSubset(x, { vertices: [-1] }, []), 'CADINTERP_E_INVALID_ARGUMENT');
+    throwsStatus(() => a.evalSubset(x, { vertices: [0.5] }, []), 'CADINTERP_E_INVALID_ARGUMENT');
+    throwsStatus(() => a.evalSubset(x, { vertices: 3 }, []), 'CADINTERP_E_INVALID_ARGUMENT');
+    throwsStatus(() => a.evalSubset(x, { vertices: [0] }, ['nope']), 'CADINTERP_E_NOT_FOUND');
+    throwsStatus(() => a.evalSubset([2, 2].map((v, d) => a.parameters[d].upper + v), { vertices: [0] }, []), 'CADINTERP_E_OUTSIDE_DOMAIN');
+  } finally {
+    a.close();
+  }
+  assert.throws(() => a.evalSubset([0, 0], {}, []), /closed/);
+});
+
 test('properties match sums over the evaluated mesh, and their grad matches finite differences', () => {
   const a = lib.open(caseBytes('valid', 'k3_cubic'));
   try {

@@ -5,9 +5,18 @@
 // drawing the mesh every frame and shows the properties as they arrive (one computation behind
 // at most).
 //
-// Messages in:  { type: 'init', wasmUrl, bytes }  then  { type: 'properties', id, x, density, direction }
+// It also answers what needs every tet's (or vertex's) field value, which the page no longer
+// evaluates per frame (it blends the drawn surface only, cadinterp_eval_subset): the value range
+// of the displayed field (the colour map's and the legend's range) and the max of the stress
+// field (the readout), exactly as the native runtime would compute them at the same x.
+//
+// Messages in:  { type: 'init', wasmUrl, bytes }
+//               { type: 'properties', id, x, density, direction, ranges: [field names] }
 // Messages out: { type: 'ready', version } | { type: 'error', message }
-//               { type: 'properties', id, x, properties } | { type: 'properties', id, x, error }
+//               { type: 'properties', id, x, properties, ranges: { name: [min, max] } }
+//               | { type: 'properties', id, x, error }
+import { propertiesAndRanges } from './surface.js';
+
 let asset = null;
 
 self.onmessage = async (event) => {
@@ -25,8 +34,8 @@ self.onmessage = async (event) => {
   }
   if (m.type === 'properties') {
     try {
-      const properties = asset.properties(m.x, { density: m.density, direction: m.direction });
-      self.postMessage({ type: 'properties', id: m.id, x: m.x, properties });
+      const { properties, ranges } = propertiesAndRanges(asset, m);
+      self.postMessage({ type: 'properties', id: m.id, x: m.x, properties, ranges });
     } catch (e) {
       self.postMessage({ type: 'properties', id: m.id, x: m.x, error: `${e.message}${e.statusName ? ` (${e.statusName})` : ''}` });
     }

@@ -43,7 +43,7 @@ export class Surface {
       m.tetCount === this.tetCount &&
       sameArray(m.triangles, this.triangles) &&
       sameArray(m.triangleTags, this.triangleTags) &&
-      (this.tets === null || sameArray(m.tets, this.tets))
+      (this.tets === null || this.#ownersHold(m.tets) || sameArray(m.tets, this.tets))
     ) {
       return false;
     }
@@ -67,8 +67,82 @@ export class Surface {
     this.index = index;
     this.triangleTet = null;
     this.vertexTriangles = null;
+    this.subset = null;
+    this.triangleRow = null;
+    this.coarse = null;
     this.version += 1;
     return true;
+  }
+
+  /** Whether each boundary triangle's tet (when known) still holds its three vertices in `tets`:
+   *  all the page takes from the tets, checked in O(#F) instead of comparing all 4 #T ids
+   *  (17 ms on the 490k-tet bracket, at every change of element while dragging). */
+  #ownersHold(tets) {
+    const owner = this.triangleTet, tri = this.triangles;
+    if (!owner) return false;
+    for (let f = 0; f < owner.length; ++f) {
+      const t = owner[f];
+      if (t < 0) return false; // re-derived by the full comparison
+      const a = tets[4 * t], b = tets[4 * t + 1], c = tets[4 * t + 2], d = tets[4 * t + 3];
+      for (let k = 0; k < 3; ++k) {
+        const v = tri[3 * f + k];
+        if (v !== a && v !== b && v !== c && v !== d) return false;
+      }
+    }
+    return true;
+  }
+
+  /**
+   * A coarse version of the surface for drawing while a slider moves (software GL draws ~600k
+   * triangles a second here, so 32k triangles cap a drag near 20 fps): vertex clustering
+   * (Rossignac-Borrel) on a grid of the part's bounding box, where vertices of one cell whose
+   * normals face the same way (dominant axis and sign: the two sides of a thin wall stay apart)
+   * merge into the cell's first vertex, and triangles left with three distinct vertices are kept,
+   * in their orientation. Its vertices are surface vertices, so the coarse mesh shows evaluated
+   * positions, normals and colours, only fewer of them. The grid is the finest (of a few) giving
+   * at most `target` triangles; computed once per topology from the positions and normals given.
+   * Returns a Uint32Array of compact triangle indices, or null when the surface has no more than
+   * `target` triangles anyway.
+   */
+  coarseIndex(pos, nrm, target) {
+    if (this.coarse && this.coarse.target === target) return this.coarse.index;
+    const n = this.surfaceVertexCount, idx = this.index;
+    let index = null;
+    if (idx.length / 3 > target) {
+      const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+      for (let i = 0; i < n; ++i)
+        for (let c = 0; c < 3; ++c) {
+          const v = pos[3 * i + c];
+          if (v < lo[c]) lo[c] = v;
+          if (v > hi[c]) hi[c] = v;
+        }
+      const ext = Math.max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
+      const rep = new Int32Array(n);
+      for (const cells of [96, 64, 48, 32, 24, 16, 12, 8]) {
+        const h = ext / cells, m = cells + 1;
+        const first = new Map();
+        for (let i = 0; i < n; ++i) {
+          const nx = nrm[3 * i], ny = nrm[3 * i + 1], nz = nrm[3 * i + 2];
+          const ax = Math.abs(nx), ay = Math.abs(ny), az = Math.abs(nz);
+          const bin = ax >= ay && ax >= az ? (nx > 0 ? 0 : 1) : ay >= az ? (ny > 0 ? 2 : 3) : nz > 0 ? 4 : 5;
+          const ix = Math.floor((pos[3 * i] - lo[0]) / h), iy = Math.floor((pos[3 * i + 1] - lo[1]) / h);
+          const iz = Math.floor((pos[3 * i + 2] - lo[2]) / h);
+          const key = ((ix * m + iy) * m + iz) * 6 + bin;
+          let r = first.get(key);
+          if (r === undefined) first.set(key, (r = i));
+          rep[i] = r;
+        }
+        const out = [];
+        for (let t = 0; t < idx.length; t += 3) {
+          const a = rep[idx[t]], b = rep[idx[t + 1]], c = rep[idx[t + 2]];
+          if (a !== b && b !== c && a !== c) out.push(a, b, c);
+        }
+        index = Uint32Array.from(out);
+        if (out.length / 3 <= target) break;
+      }
+    }
+    this.coarse = { target, index };
+    return index;
   }
 
   get surfaceVertexCount() {
@@ -179,8 +253,7 @@ export class Surface {
       return;
     }
     this.#ensureTriangleTets();
-    this.#ensureVertexTriangles();
-    const start = this.vertexTriangleStart, list = this.vertexTriangles, owner = this.triangleTet;
+    const owner = this.triangleTet;
     // Each boundary triangle's value once, then the per-vertex means (a vertex has ~6).
     const F = owner.length;
     if (!this.triangleValue || this.triangleValue.length !== F) this.triangleValue = new Float32Array(F);
@@ -189,6 +262,14 @@ export class Surface {
       const t = owner[f];
       tv[f] = t < 0 ? NaN : components === 1 ? values[t] : mag(components * t);
     }
+    this.#meanOverTriangles(out);
+  }
+
+  /** out[i] = mean of this.triangleValue over surface vertex i's triangles (NaN ones skipped). */
+  #meanOverTriangles(out) {
+    this.#ensureVertexTriangles();
+    const n = this.surfaceVertexCount, tv = this.triangleValue;
+    const start = this.vertexTriangleStart, list = this.vertexTriangles;
     for (let i = 0; i < n; ++i) {
       let s = 0, k = 0;
       for (let j = start[i]; j < start[i + 1]; ++j) {
@@ -202,9 +283,55 @@ export class Surface {
     }
   }
 
+  /**
+   * The rows the page evaluates per frame (cadinterp_eval_subset): the surface vertices (drawn,
+   * per-vertex fields) and each boundary triangle's tet (per-tet fields; 0 stands in for a
+   * triangle without one, whose value surfaceValues ignores). Fixed per topology.
+   */
+  subsetIds() {
+    if (!this.subset) {
+      this.#ensureTriangleTets();
+      // Each owning tet once, in ascending order: a per-tet field's rows are then read from the
+      // stored arrays front to back (the blend of scattered tets is bound by memory latency,
+      // one cache line per tet and term), and a tet owning two boundary triangles once.
+      const owners = Int32Array.from(this.triangleTet.filter((t) => t >= 0)).sort();
+      const tets = [];
+      for (let i = 0; i < owners.length; ++i) if (i === 0 || owners[i] !== owners[i - 1]) tets.push(owners[i]);
+      const row = new Map(tets.map((t, i) => [t, i]));
+      this.triangleRow = Int32Array.from(this.triangleTet, (t) => (t < 0 ? -1 : row.get(t)));
+      this.subset = { vertices: this.surfaceVertices, tets: Uint32Array.from(tets) };
+    }
+    return this.subset;
+  }
+
+  /**
+   * vertexValues for the rows of subsetIds(): `values` holds one row per surface vertex
+   * (per-vertex fields) or per subsetIds().tets entry (per-tet fields).
+   */
+  surfaceValues(values, location, components, out) {
+    const n = this.surfaceVertexCount;
+    const mag = (base) => {
+      if (components === 1) return values[base];
+      let s = 0;
+      for (let c = 0; c < components; ++c) s += values[base + c] * values[base + c];
+      return Math.sqrt(s);
+    };
+    if (location === 'vertex') {
+      for (let i = 0; i < n; ++i) out[i] = mag(components * i);
+      return;
+    }
+    this.subsetIds();
+    const row = this.triangleRow, F = row.length;
+    if (!this.triangleValue || this.triangleValue.length !== F) this.triangleValue = new Float32Array(F);
+    const tv = this.triangleValue;
+    for (let f = 0; f < F; ++f) tv[f] = row[f] < 0 ? NaN : mag(components * row[f]);
+    this.#meanOverTriangles(out);
+  }
+
   /** Area-weighted centroid, mean outward normal and area of the triangles with a tag in
-   *  `tags`, on compact positions `pos`. */
-  regionFrame(pos, tags, traction = null) {
+   *  `tags`, on compact positions `pos`; `traction` is indexed by the full mesh's vertex ids,
+   *  or with `compactTraction` by surface vertex (a subset eval's rows). */
+  regionFrame(pos, tags, traction = null, compactTraction = false) {
     const tagSet = new Set(tags);
     const idx = this.index, triTags = this.triangleTags, tri = this.triangles;
     let area = 0, cx = 0, cy = 0, cz = 0, nx = 0, ny = 0, nz = 0, count = 0;
@@ -225,7 +352,8 @@ export class Surface {
       if (traction) {
         // Area-weighted mean of a per-vertex 3-vector field (indexed by the full mesh's vertex
         // ids): the integral of the linear interpolant over the triangle is A (t_a + t_b + t_c) / 3.
-        const p = 3 * tri[3 * f], q = 3 * tri[3 * f + 1], r = 3 * tri[3 * f + 2];
+        const ids = compactTraction ? idx : tri;
+        const p = 3 * ids[3 * f], q = 3 * ids[3 * f + 1], r = 3 * ids[3 * f + 2];
         tx += (A * (traction[p] + traction[q] + traction[r])) / 3;
         ty += (A * (traction[p + 1] + traction[q + 1] + traction[r + 1])) / 3;
         tz += (A * (traction[p + 2] + traction[q + 2] + traction[r + 2])) / 3;
@@ -323,4 +451,21 @@ export function infeasibleRuns(asset, x, i, lower, upper, samples = 161) {
     }
   }
   return runs;
+}
+
+/**
+ * What the page takes from the whole mesh rather than from the drawn surface: the mass
+ * properties at req.x (cadinterp_properties_eval) and the [min, max] of each field named in
+ * req.ranges (magnitudes for vector fields) over all its vertices or tets, as the native runtime
+ * computes them. Run by the properties worker (or by the page without one).
+ */
+export function propertiesAndRanges(asset, req) {
+  const properties = asset.properties(req.x, { density: req.density, direction: req.direction });
+  const ranges = {};
+  const names = [...new Set(req.ranges ?? [])].filter((n) => asset.fields.some((f) => f.name === n));
+  if (names.length) {
+    const r = asset.eval(req.x, names);
+    for (const n of names) ranges[n] = fieldRange(r.fields[n], asset.fields.find((f) => f.name === n).components);
+  }
+  return { properties, ranges };
 }

@@ -1,12 +1,17 @@
 // Frame rate while dragging each slider (not a test: a measurement to report).
-//   CADINTERP_CLI=... [EXPLORER_QUERY='?worker=0'] node test/fps.mjs ASSET [SECONDS]
+//   CADINTERP_CLI=... [EXPLORER_QUERY='?worker=0'] node test/fps.mjs ASSET [SECONDS] [MODES]
 // Serves ASSET with `cadinterp explore`, opens it in headless Chromium and, for each parameter,
 // moves its slider every animation frame for SECONDS through the same input event a mouse drag
 // fires (window.__explorer.benchDrag): frames per second, evaluations per second and the time
 // of one update (eval + surface gather + normals + colours + properties), as JSON on stdout.
+// MODES (comma-separated, default "drag"): also "render" (the unchanged mesh drawn every frame:
+// what drawing alone costs, the ceiling of the drag's frame rate) and "idle" (nothing drawn:
+// the frame clock's own rate); those two run once, not per slider.
+// EXPLORER_QUERY '?subset=0' evaluates the whole mesh per move, as the page did before.
 import { launchBrowser, openPage, startServer } from './harness.mjs';
 
-const [asset, seconds = '3'] = process.argv.slice(2);
+const [asset, seconds = '3', modesArg = 'drag'] = process.argv.slice(2);
+const modes = modesArg.split(',');
 if (!asset) {
   console.error('usage: node test/fps.mjs ASSET [SECONDS]');
   process.exit(2);
@@ -28,11 +33,13 @@ try {
   });
   const x0 = await page.evaluate(() => window.__explorer.state().evaluatedX);
   const results = [];
-  for (let i = 0; i < info.parameters.length; ++i) {
-    // Each slider from the same start, so one sweep's end point does not decide the next.
-    await page.evaluate((x) => window.__explorer.setX(x), x0);
-    const r = await page.evaluate(([k, s]) => window.__explorer.benchDrag(k, s), [i, Number(seconds)]);
-    results.push({ parameter: info.parameters[i], ...r });
+  for (const mode of modes) {
+    for (let i = 0; i < (mode === 'drag' ? info.parameters.length : 1); ++i) {
+      // Each slider from the same start, so one sweep's end point does not decide the next.
+      await page.evaluate((x) => window.__explorer.setX(x), x0);
+      const r = await page.evaluate(([k, s, md]) => window.__explorer.benchDrag(k, s, md), [i, Number(seconds), mode]);
+      results.push({ parameter: mode === 'drag' ? info.parameters[i] : null, ...r });
+    }
   }
   const out = {
     asset,
@@ -44,6 +51,7 @@ try {
     query: process.env.EXPLORER_QUERY ?? '',
     viewport: '1280x800 (canvas 920x800)',
     antialias: await page.evaluate(() => window.__explorer.antialias),
+    load: (await import('node:os')).loadavg(),
     results,
     problems,
   };

@@ -121,6 +121,12 @@ describe('Surface', () => {
     // Two faces together: weighted by their (equal) areas.
     const both = s.regionFrame(pos, [1, 2], t).meanTraction;
     [0.5, 1, 2.5].forEach((w, i) => assert.ok(Math.abs(both[i] - w) < 1e-6, `${both}`));
+    // The same traction as a subset eval returns it (one row per surface vertex): same means.
+    const rows = new Float32Array(3 * s.surfaceVertexCount);
+    s.surfaceVertices.forEach((v, i) => rows.set(t.subarray(3 * v, 3 * v + 3), 3 * i));
+    for (const tag of [1, 2, 6]) {
+      assert.deepEqual(s.regionFrame(pos, [tag], rows, true).meanTraction, s.regionFrame(pos, [tag], t).meanTraction);
+    }
     assert.equal(s.regionFrame(pos, [1]).meanTraction, null);
   });
 
@@ -144,6 +150,62 @@ describe('Surface', () => {
     for (let v = 0; v < 9; ++v) vec.set([3 * v, 4 * v, 0], 3 * v);
     s.vertexValues(vec, 'vertex', 3, out);
     s.surfaceVertices.forEach((id, k) => assert.ok(Math.abs(out[k] - 5 * id) < 1e-5));
+  });
+
+  it('names the rows a subset eval needs, and draws from them what vertexValues draws from the whole mesh', () => {
+    const m = cube();
+    const s = new Surface();
+    s.sync(m);
+    const { vertices, tets } = s.subsetIds();
+    // The 8 corners (not the unused vertex 8); every Kuhn tet owns two boundary triangles:
+    // each tet once, ascending.
+    assert.deepEqual(Array.from(vertices).sort(), [0, 1, 2, 3, 4, 5, 6, 7]);
+    assert.deepEqual(Array.from(tets), [0, 1, 2, 3, 4, 5]);
+    // A subset eval's rows, built here from whole-mesh arrays: per tet t value 10 t + 1, per
+    // vertex v the vector (v, 2v, 2v) of magnitude 3v.
+    const perTet = Float32Array.from([0, 1, 2, 3, 4, 5], (t) => 10 * t + 1);
+    const perVertex = new Float32Array(27);
+    for (let v = 0; v < 9; ++v) perVertex.set([v, 2 * v, 2 * v], 3 * v);
+    const tetRows = Float32Array.from(tets, (t) => perTet[t]);
+    const vertexRows = new Float32Array(3 * vertices.length);
+    vertices.forEach((v, i) => vertexRows.set(perVertex.subarray(3 * v, 3 * v + 3), 3 * i));
+    const want = new Float32Array(8), got = new Float32Array(8);
+    s.vertexValues(perTet, 'tet', 1, want);
+    s.surfaceValues(tetRows, 'tet', 1, got);
+    assert.deepEqual(got, want);
+    s.vertexValues(perVertex, 'vertex', 3, want);
+    s.surfaceValues(vertexRows, 'vertex', 3, got);
+    assert.deepEqual(got, want);
+    vertices.forEach((v, k) => assert.ok(Math.abs(got[k] - 3 * v) < 1e-5));
+  });
+
+  it('coarsens a finely tessellated square for dragging: fewer triangles, same side, most of its area', () => {
+    // The unit square z = 0 as a 60 x 60 grid of vertices, 2 triangles per cell, facing +z.
+    const k = 60, positions = [], triangles = [];
+    for (let j = 0; j < k; ++j) for (let i = 0; i < k; ++i) positions.push(i / (k - 1), j / (k - 1), 0);
+    for (let j = 0; j + 1 < k; ++j)
+      for (let i = 0; i + 1 < k; ++i) {
+        const v = j * k + i;
+        triangles.push(v, v + 1, v + k + 1, v, v + k + 1, v + k);
+      }
+    const s = new Surface();
+    s.sync({ vertexCount: k * k, tetCount: 0, element: 0, positions: Float32Array.from(positions), tets: new Uint32Array(0),
+      triangles: Uint32Array.from(triangles), triangleTags: new Int32Array(triangles.length / 3) });
+    const pos = new Float32Array(3 * k * k), nrm = new Float32Array(3 * k * k);
+    s.gatherPositions(Float32Array.from(positions), pos);
+    s.computeNormals(pos, nrm);
+    assert.equal(s.coarseIndex(pos, nrm, 10000), null, 'no coarse version of a surface already small enough');
+    const c = s.coarseIndex(pos, nrm, 1000);
+    assert.ok(c.length / 3 <= 1000 && c.length / 3 > 100, `${c.length / 3} triangles`);
+    let area = 0;
+    for (let t = 0; t < c.length; t += 3) {
+      const [a, b, d] = [c[t], c[t + 1], c[t + 2]].map((v) => pos.subarray(3 * v, 3 * v + 3));
+      const z = (b[0] - a[0]) * (d[1] - a[1]) - (b[1] - a[1]) * (d[0] - a[0]);
+      assert.ok(z >= 0, 'a coarse triangle turned over');
+      area += z / 2;
+    }
+    // Clustering moves the rim inwards by less than a grid cell (at most 1/8 of the extent).
+    assert.ok(area > 0.75 && area <= 1 + 1e-6, `area ${area}`);
   });
 
   it('adopts a new topology when the element changes to different arrays', () => {
