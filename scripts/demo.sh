@@ -27,9 +27,22 @@ cli=./build/release/src/tools/cadinterp
 host=./build/release/examples/hosts/occt/libcadinterp_host_occt.so
 out=build/demo
 mkdir -p "$out"
-"$cli" build --host "$host" --model wrench \
-  --host-options mesh_size=6,vary=head_fillet+load_angle --max-samples 40 --max-depth 4 \
-  --store "$out/wrench.store" -o "$out/wrench.cadi" -q "$@"
+build() {
+  "$cli" build --host "$host" --model wrench \
+    --host-options mesh_size=6,vary=head_fillet+load_angle --max-samples 40 --max-depth 4 \
+    --store "$out/wrench.store" -o "$out/wrench.cadi" -q "$@"
+}
+# A store written by another version of the host (its identity names every setting and the
+# fields it emits) is refused rather than mixed; keep it aside and start a new one.
+if ! build "$@" 2>"$out/build.err"; then
+  cat "$out/build.err" >&2
+  grep -q "holds samples of another" "$out/build.err" || exit 1
+  mv "$out/wrench.store" "$out/wrench.store.old"
+  rm -f "$out/wrench.store-wal" "$out/wrench.store-shm"
+  echo "demo: $out/wrench.store was made by another host version; moved to wrench.store.old," \
+    "building anew" >&2
+  build "$@"
+fi
 "$cli" inspect "$out/wrench.cadi"
 "$cli" eval "$out/wrench.cadi" 6 15 --vtu "$out/wrench_6_15.vtu" --gltf "$out/wrench_6_15.glb"
 echo "meshes written to $out/"
