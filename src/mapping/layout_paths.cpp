@@ -132,6 +132,52 @@ std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<cha
   return chain;
 }
 
+std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vector<char>& cuts,
+                                                std::uint32_t a, const std::vector<char>& targets,
+                                                const std::vector<int>& patch_of, int patch) {
+  const std::size_t V = s.sample->vertex_count();
+  const int H = 3 * s.triangles();
+  std::vector<char> blocked(V, 0);
+  for (int h = 0; h < H; ++h)
+    if (cuts[static_cast<std::size_t>(h)]) blocked[s.from(h)] = blocked[s.to(h)] = 1;
+  std::vector<std::vector<int>> out_edges(V);
+  for (int h = 0; h < H; ++h)
+    if (patch_of[static_cast<std::size_t>(h / 3)] == patch) out_edges[s.from(h)].push_back(h);
+  std::vector<double> dist(V, std::numeric_limits<double>::infinity());
+  std::vector<std::int64_t> prev(V, -1);
+  using Item = std::pair<double, std::uint32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  dist[a] = 0;
+  queue.emplace(0.0, a);
+  std::int64_t found = -1;
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > dist[v]) continue;
+    if (v != a && targets[v]) {
+      found = v;
+      break;
+    }
+    if (v != a && blocked[v]) continue;
+    for (int h : out_edges[v]) {
+      if (cuts[static_cast<std::size_t>(h)]) continue;
+      const std::uint32_t w = s.to(h);
+      if (blocked[w] && !targets[w]) continue;
+      const double nd = d + distance(s.position(v), s.position(w));
+      if (nd < dist[w]) {
+        dist[w] = nd;
+        prev[w] = v;
+        queue.emplace(nd, w);
+      }
+    }
+  }
+  if (found < 0) return {};
+  std::vector<std::uint32_t> chain{static_cast<std::uint32_t>(found)};
+  while (chain.back() != a) chain.push_back(static_cast<std::uint32_t>(prev[chain.back()]));
+  std::reverse(chain.begin(), chain.end());
+  return chain;
+}
+
 void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts) {
   std::unordered_map<std::uint64_t, int> directed;
   const int H = 3 * s.triangles();

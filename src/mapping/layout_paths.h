@@ -44,6 +44,12 @@ std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<cha
                                          const std::vector<int>* patch_of = nullptr, int patch = -1,
                                          const std::vector<char>* touch_except = nullptr);
 
+/// Dijkstra along surface edges from a to the nearest vertex marked in `targets` (within patch
+/// `patch` of `patch_of`), with inner vertices off every cut; the chain a..target, or empty.
+std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vector<char>& cuts,
+                                                std::uint32_t a, const std::vector<char>& targets,
+                                                const std::vector<int>& patch_of, int patch);
+
 /// One side of the cyclic-order check: the surface, its cuts before and after adding a layout
 /// path, the path's end vertex, and per surface vertex its anchor index (-1 for none).
 struct PathEnd {

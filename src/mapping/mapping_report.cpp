@@ -115,6 +115,10 @@ int pairs(const std::vector<std::string>& args) {
   p.option("fallback-steps", 0, "N",
            "increments of the second interior solve where tets stay inverted (0: none)",
            &mo.fallback_steps, 0, 1000);
+  p.option("boundary-passes", 0, "N",
+           "passes of boundary untangling (surface vertices moved within the source surface, "
+           "then the interior again) where tets stay inverted (0: none)",
+           &mo.boundary_untangle_passes, 0, 100);
   if (!p.parse(args)) return 0;
   mo.stiffening = stiffen;
   for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -15,6 +16,7 @@
 #include "analytic_host.h"
 #include "builder/host_call.h"
 #include "builder/surface_distance.h"
+#include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/interior_solve.h"
 #include "mapping/layout_paths.h"
@@ -718,5 +720,251 @@ TEST(InteriorSolve, IncrementalSolveReproducesAffineMapsExactly) {
       continue;
     }
     for (std::size_t i = 0; i < y.size(); ++i) ASSERT_NEAR(mapped[i], y[i], 1e-9) << steps;
+  }
+}
+
+// ---- Round 4: boundary untangling and hole splitting on small meshes built here ----
+
+namespace voxel {
+
+// A plate [0, X] x [0, Y] x [0, Z] on a grid of step h, with square through-holes (cells
+// removed), each hex split into the 6 Kuhn tets around its main diagonal (conforming across
+// cells). Tags: top 1, bottom 2, the four outer walls 3..6, the walls of hole k one tag 10 + k
+// (an annulus). Control points: the plate's 8 corners, and one corner of each hole at the top
+// and at the bottom (a hole loop with a single anchor: the two-path split cannot cut it).
+struct Hole {
+  double x0, y0, x1, y1;
+};
+
+builder::Sample plate(double X, double Y, double Z, double h, const std::vector<Hole>& holes) {
+  const int nx = int(std::lround(X / h)), ny = int(std::lround(Y / h)),
+            nz = int(std::lround(Z / h));
+  auto in_hole = [&](double x, double y) {
+    for (const Hole& o : holes)
+      if (x > o.x0 && x < o.x1 && y > o.y0 && y < o.y1) return true;
+    return false;
+  };
+  auto grid = [&](int i, int j, int k) { return std::size_t((k * (ny + 1) + j) * (nx + 1) + i); };
+  std::vector<double> all(3 * std::size_t((nx + 1) * (ny + 1) * (nz + 1)));
+  for (int k = 0; k <= nz; ++k)
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= nx; ++i) {
+        all[3 * grid(i, j, k)] = i * h;
+        all[3 * grid(i, j, k) + 1] = j * h;
+        all[3 * grid(i, j, k) + 2] = k * h;
+      }
+  std::vector<std::uint32_t> tets;
+  // The 6 paths from corner 000 to 111 through the cube's edges: each a Kuhn tet.
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        if (in_hole((i + 0.5) * h, (j + 0.5) * h)) continue;
+        for (const auto& p : perms) {
+          int c[3] = {i, j, k};
+          std::uint32_t t[4];
+          t[0] = std::uint32_t(grid(c[0], c[1], c[2]));
+          for (int s = 0; s < 3; ++s) {
+            ++c[p[s]];
+            t[s + 1] = std::uint32_t(grid(c[0], c[1], c[2]));
+          }
+          if (mapping::scaled_jacobian(all, t) < 0) std::swap(t[2], t[3]);
+          tets.insert(tets.end(), t, t + 4);
+        }
+      }
+  // Compact (vertices inside holes are in no tet).
+  std::vector<std::int64_t> index(all.size() / 3, -1);
+  builder::Sample s;
+  s.feasible = true;
+  for (std::uint32_t& v : tets) {
+    if (index[v] < 0) {
+      index[v] = std::int64_t(s.vertices.size() / 3);
+      s.vertices.insert(s.vertices.end(), &all[3 * v], &all[3 * v] + 3);
+    }
+    v = std::uint32_t(index[v]);
+  }
+  s.tets = tets;
+  // Boundary faces: those of one tet, oriented away from its fourth vertex.
+  std::map<std::array<std::uint32_t, 3>, std::pair<int, std::array<std::uint32_t, 4>>> faces;
+  for (std::size_t t = 0; t < s.tet_count(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<std::uint32_t, 3> tri;
+      for (int a = 0, n = 0; a < 4; ++a)
+        if (a != f) tri[std::size_t(n++)] = s.tets[4 * t + std::size_t(a)];
+      std::array<std::uint32_t, 3> key = tri;
+      std::sort(key.begin(), key.end());
+      auto& e = faces[key];
+      ++e.first;
+      e.second = {tri[0], tri[1], tri[2], s.tets[4 * t + std::size_t(f)]};
+    }
+  for (const auto& [key, e] : faces) {
+    if (e.first != 1) continue;
+    std::array<std::uint32_t, 4> q = e.second;
+    const double* a = &s.vertices[3 * q[0]];
+    const double* b = &s.vertices[3 * q[1]];
+    const double* c = &s.vertices[3 * q[2]];
+    const double* d = &s.vertices[3 * q[3]];
+    double n[3] = {(b[1] - a[1]) * (c[2] - a[2]) - (b[2] - a[2]) * (c[1] - a[1]),
+                   (b[2] - a[2]) * (c[0] - a[0]) - (b[0] - a[0]) * (c[2] - a[2]),
+                   (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])};
+    if (n[0] * (d[0] - a[0]) + n[1] * (d[1] - a[1]) + n[2] * (d[2] - a[2]) > 0) {
+      std::swap(q[1], q[2]);
+      for (double& x : n) x = -x;
+    }
+    s.triangles.insert(s.triangles.end(), {q[0], q[1], q[2]});
+    const double m[3] = {(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3,
+                         (a[2] + b[2] + c[2]) / 3};
+    std::int32_t tag = 0;
+    if (std::fabs(n[2]) > 0.5) {
+      tag = n[2] > 0 ? 1 : 2;
+    } else if (m[0] < 1e-9 || m[0] > X - 1e-9 || m[1] < 1e-9 || m[1] > Y - 1e-9) {
+      tag = m[0] < 1e-9 ? 3 : m[0] > X - 1e-9 ? 4 : m[1] < 1e-9 ? 5 : 6;
+    } else {
+      for (std::size_t k = 0; k < holes.size(); ++k)
+        if (m[0] > holes[k].x0 - 1e-9 && m[0] < holes[k].x1 + 1e-9 && m[1] > holes[k].y0 - 1e-9 &&
+            m[1] < holes[k].y1 + 1e-9)
+          tag = 10 + std::int32_t(k);
+    }
+    s.triangle_tags.push_back(tag);
+  }
+  auto point = [&](std::int64_t id, double x, double y, double z) {
+    builder::ControlPoint p;
+    p.id = {0, id};
+    p.position[0] = x;
+    p.position[1] = y;
+    p.position[2] = z;
+    s.points.push_back(p);
+  };
+  for (int c = 0; c < 8; ++c) point(1 + c, (c & 1) * X, (c >> 1 & 1) * Y, (c >> 2) * Z);
+  for (std::size_t k = 0; k < holes.size(); ++k) {
+    point(100 + std::int64_t(k), holes[k].x0, holes[k].y0, Z);
+    point(200 + std::int64_t(k), holes[k].x0, holes[k].y0, 0);
+  }
+  return s;
+}
+
+}  // namespace voxel
+
+// The plate with three through-holes: its top and bottom faces have four boundary loops each,
+// every hole loop with a single anchor, and each hole wall is an annulus with one anchor per
+// loop. Before round 4 this failed ("too few anchors on its loops"); now each hole is joined to
+// the loop outside it by a slit. Same solid at two resolutions, so the truth is the solid itself:
+// every mapped boundary vertex on the source surface, the surface covered (Hausdorff both ways),
+// every tet valid.
+TEST(MeshMapper, FaceWithSeveralHolesIsSlitIntoOneDisk) {
+  const std::vector<voxel::Hole> holes = {{2, 2, 4, 4}, {6, 4, 8, 6}, {9, 1, 10, 3}};
+  const builder::Sample source = voxel::plate(12, 8, 1, 1, holes);
+  const builder::Sample canonical = voxel::plate(12, 8, 1, 0.5, holes);
+  ASSERT_EQ(builder::validate(source), "");
+  ASSERT_EQ(builder::validate(canonical), "");
+  builder::MappedSample m;
+  std::string why;
+  mapping::MapStats stats;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+  // top, bottom, four outer walls, three hole walls: each one (slit) disk.
+  EXPECT_EQ(stats.patches, 9u);
+  EXPECT_EQ(stats.inverted, 0u);
+  EXPECT_EQ(mapping::tet_quality(m.vertices, canonical.tets).inverted, 0u);
+  const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, nullptr);
+  std::printf("plate with 3 holes: Hausdorff %.2e, min SJ %.3f\n", q.hausdorff_max,
+              q.min_scaled_jacobian);
+  // The faces are flat: the mapped surface lies on the source's and covers it.
+  EXPECT_LT(q.hausdorff_max, 1e-9);
+  // Each boundary vertex stays on its own face's plane (tags are kept by the combinatorics).
+  for (std::size_t t = 0; t < canonical.triangle_count(); ++t) {
+    const std::int32_t tag = canonical.triangle_tags[t];
+    for (int c = 0; c < 3; ++c) {
+      const double* x = &m.vertices[3 * std::size_t(canonical.triangles[3 * t + std::size_t(c)])];
+      if (tag == 1) {
+        EXPECT_NEAR(x[2], 1.0, 1e-12);
+      }
+      if (tag == 2) {
+        EXPECT_NEAR(x[2], 0.0, 1e-12);
+      }
+      if (tag == 3) {
+        EXPECT_NEAR(x[0], 0.0, 1e-12);
+      }
+      if (tag == 4) {
+        EXPECT_NEAR(x[0], 12.0, 1e-12);
+      }
+    }
+  }
+}
+
+// A thin wedge: two faces meeting at a sharp edge (the x axis) at 8 degrees, one prism of three
+// tets whose vertices all lie on the boundary. Moving one face vertex within its face folds a
+// tet; no interior vertex exists, so only the boundary untangling can repair it, by moving
+// vertices within their faces (2-D), along the edge (1-D), never the anchor.
+TEST(BoundaryUntangle, ThinWedgeFoldedAtItsSharpEdgeIsRepairedWithinItsFaces) {
+  const double th = 8 * 3.14159265358979 / 180, c = std::cos(th), s = std::sin(th);
+  // e0, a0, b0 at x = 0; e1, a1, b1 at x = 1. Face A: z = 0; face B: (x, r c, r s).
+  std::vector<double> x = {0, 0, 0, 0, 1, 0, 0, c, s, 1, 0, 0, 1, 1, 0, 1, c, s};
+  std::vector<std::uint32_t> tets = {0, 1, 2, 3, 1, 2, 3, 4, 2, 3, 4, 5};
+  for (std::size_t t = 0; t < 3; ++t)
+    if (mapping::scaled_jacobian(x, &tets[4 * t]) < 0) std::swap(tets[4 * t + 2], tets[4 * t + 3]);
+  ASSERT_EQ(mapping::tet_quality(x, tets).inverted, 0u);
+  // Freedoms: e0 an anchor; e1 along the edge; a* in face A (u = x, v = y), b* in face B.
+  std::vector<mapping::BoundaryDof> dofs(6);
+  std::vector<int> dof_of = {0, 1, 2, 3, 4, 5};
+  const int face[6] = {-1, 0, 1, -1, 0, 1};
+  for (std::uint32_t v = 0; v < 6; ++v) {
+    mapping::BoundaryDof& d = dofs[v];
+    d.vertex = v;
+    d.patch = face[v];
+    d.dims = v == 0 ? 0 : v == 3 ? 1 : 2;
+    d.p[0] = x[3 * v];
+    d.p[1] = face[v] == 0 ? x[3 * v + 1] : face[v] == 1 ? x[3 * v + 1] / c : 0;
+    d.lo = 0.5;
+    d.hi = 2.0;
+    d.step = 0.25;
+  }
+  const mapping::PlaceFn place = [&](const mapping::BoundaryDof& d, const double* p, double* y) {
+    if (d.dims == 2 && !(p[1] > 0.05)) return false;  // stay on the face, off the edge
+    y[0] = p[0];
+    y[1] = d.dims == 1 ? 0 : d.patch == 0 ? p[1] : p[1] * c;
+    y[2] = d.dims == 1 ? 0 : d.patch == 0 ? 0 : p[1] * s;
+    return true;
+  };
+  // Fold: a1 slides along face A to x = -0.6 (behind the edge's start).
+  dofs[4].p[0] = -0.6;
+  place(dofs[4], dofs[4].p, &x[3 * 4]);
+  const std::size_t folded = mapping::tet_quality(x, tets).inverted;
+  ASSERT_GT(folded, 0u);
+  const double diag = std::sqrt(3.0);
+  const double min_six = 1e-12 * diag * diag * diag;
+  // With every vertex pinned nothing can move: the failure is reported, not hidden.
+  {
+    std::vector<mapping::BoundaryDof> pinned = dofs;
+    for (auto& d : pinned) d.dims = 0;
+    std::vector<double> y = x;
+    const mapping::BoundaryUntangleResult r =
+        mapping::untangle_boundary(tets, dof_of, pinned, place, min_six, y);
+    EXPECT_EQ(r.inverted_after, folded);
+    EXPECT_EQ(r.moved, 0u);
+    EXPECT_EQ(y, x);
+  }
+  const mapping::BoundaryUntangleResult r =
+      mapping::untangle_boundary(tets, dof_of, dofs, place, min_six, x);
+  EXPECT_EQ(r.inverted_before, folded);
+  EXPECT_EQ(r.inverted_after, 0u);
+  EXPECT_GT(r.moved, 0u);
+  EXPECT_EQ(mapping::tet_quality(x, tets).inverted, 0u);
+  // Every vertex is where its freedom allows: the anchor unmoved, e1 on the edge within its
+  // bounds, a* on face A, b* on face B, each at its parameters.
+  EXPECT_EQ(x[0], 0.0);
+  EXPECT_EQ(x[1], 0.0);
+  EXPECT_EQ(x[2], 0.0);
+  EXPECT_EQ(x[3 * 3 + 1], 0.0);
+  EXPECT_EQ(x[3 * 3 + 2], 0.0);
+  EXPECT_GE(dofs[3].p[0], 0.5);
+  EXPECT_LE(dofs[3].p[0], 2.0);
+  for (std::uint32_t v : {1u, 4u}) EXPECT_EQ(x[3 * v + 2], 0.0);
+  for (std::uint32_t v : {2u, 5u}) EXPECT_NEAR(x[3 * v + 2] * c - x[3 * v + 1] * s, 0.0, 1e-15);
+  for (std::uint32_t v = 0; v < 6; ++v) {
+    double y[3];
+    place(dofs[v], dofs[v].p, y);
+    if (dofs[v].dims > 0) {
+      for (int a = 0; a < 3; ++a) EXPECT_EQ(y[a], x[3 * v + std::size_t(a)]);
+    }
   }
 }

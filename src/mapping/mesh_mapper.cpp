@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <tuple>
 
 #include "builder/surface_distance.h"
+#include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
@@ -348,8 +351,8 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     for (const auto& chain : traced) cut_along(s, chain, cuts);
     return cuts;
   };
-  const std::vector<int> src_anchor_of = anchor_vertices(ss, src_anchor, src_tol);
-  const std::vector<int> can_anchor_of = anchor_vertices(cs, can_anchor, can_tol);
+  std::vector<int> src_anchor_of = anchor_vertices(ss, src_anchor, src_tol);
+  std::vector<int> can_anchor_of = anchor_vertices(cs, can_anchor, can_tol);
   std::size_t rejected_paths = 0;
   std::vector<char> src_cuts = cuts_of(ss, src_keys, src_traced, src_tol);
   std::vector<char> can_cuts = cuts_of(cs, can_keys, can_traced, can_tol);
@@ -427,127 +430,357 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     std::size_t sidx = 0;
     const std::vector<int> key = c.key();
     while (sidx < sp.size() && sp[sidx].key() != key) ++sidx;
-    const Loop& hole = c.holes[0];
-    if (sidx == sp.size() || round >= 64 || c.anchors.size() < 2 || hole.anchors.size() < 2) {
+    if (sidx == sp.size() || round >= 64 || c.anchors.empty()) {
       why = "mapping: a patch with " + std::to_string(c.holes.size() + 1) +
             " boundary loops could not be subdivided into disks (" +
             (sidx == sp.size() ? "no source patch with the same anchors"
-                               : "too few anchors on its loops") +
+                               : "no anchor on its first loop") +
             ")";
       return false;
     }
-    // Two paths, first loop -> hole, between the same anchors on both sides. Candidates: each
-    // anchor a1 of the first loop, nearest the hole first (canonical positions), with the
-    // first-loop anchor half-way round from it (a2) and, on the hole, the anchor nearest a1
-    // (b1) and the one half-way round from that (b2). A candidate is kept when both paths exist
-    // on both sides and the two layouts still have the same patch keys (a path leaving an
-    // anchor into a one-triangle wedge, measured on the OpenCASCADE hub, has none).
-    auto canon_pos = [&](int m) { return corr.anchors[static_cast<std::size_t>(m)].canonical; };
-    auto dist = [](const double* p, const double* q) {
-      return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-    };
-    auto nearest_on_hole = [&](int a) {
-      std::size_t nearest = 0;
-      double best = std::numeric_limits<double>::infinity();
-      for (std::size_t k = 0; k < hole.anchors.size(); ++k) {
-        const double d = dist(canon_pos(hole.anchors[k]), canon_pos(a));
-        if (d < best) {
-          best = d;
-          nearest = k;
-        }
-      }
-      return std::make_pair(nearest, best);
-    };
-    const std::size_t M = c.anchors.size();
-    std::vector<std::pair<double, std::size_t>> order;
-    for (std::size_t i = 0; i < M; ++i) order.emplace_back(nearest_on_hole(c.anchors[i]).second, i);
-    std::sort(order.begin(), order.end());
-    // An anchor where earlier splits met occurs several times on the loop, and several
-    // anchors may share one vertex (a closed edge's vertex): try each vertex once.
-    std::vector<int> seen;
-    order.erase(
-        std::remove_if(order.begin(), order.end(),
-                       [&](const std::pair<double, std::size_t>& o) {
-                         const int a =
-                             can_anchor_of_all[static_cast<std::size_t>(c.anchors[o.second])];
-                         if (std::find(seen.begin(), seen.end(), a) != seen.end()) return true;
-                         seen.push_back(a);
-                         return false;
-                       }),
-        order.end());
-    if (order.size() > 12) order.resize(12);
+    // The holes in turn (the first that can be joined or split off; the loop order is the
+    // same on both sides, by smallest anchor): a hole that no path reaches now may be
+    // reachable once another is joined.
     bool split = false;
-    for (const auto& [d0, i] : order) {
-      (void)d0;
-      const int a1 = c.anchors[i], a2 = c.anchors[(i + M / 2) % M];
-      const std::size_t nearest = nearest_on_hole(a1).first;
-      const int b1 = hole.anchors[nearest];
-      const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
-      std::vector<char> try_cuts[2] = {src_cuts, can_cuts};
-      std::vector<std::vector<std::uint32_t>> try_traced[2];
-      bool ok = true;
-      for (int side = 0; side < 2 && ok; ++side) {
-        const Surface& surf = side == 0 ? ss : cs;
-        std::vector<char>& cuts = try_cuts[side];
-        const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
-        const int patch = static_cast<int>(side == 0 ? sidx : holed);
-        const double tol = side == 0 ? src_tol : can_tol;
-        for (const auto& [x, y] : {std::make_pair(a1, b1), std::make_pair(a2, b2)}) {
-          const Anchor& ax = corr.anchors[static_cast<std::size_t>(x)];
-          const Anchor& ay = corr.anchors[static_cast<std::size_t>(y)];
-          const int vx = vertex_at(surf, side == 0 ? ax.source : ax.canonical, tol);
-          const int vy = vertex_at(surf, side == 0 ? ay.source : ay.canonical, tol);
-          std::vector<std::uint32_t> chain;
-          if (vx >= 0 && vy >= 0) {
-            chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
-                                  static_cast<std::uint32_t>(vy), &of, patch);
-            // A coarse mesh may have no vertex off the loops between them (a small hole near
-            // the rim: one triangle row): the path may then touch loops away from anchors, and
-            // build_patches cuts the patch open there; the anchors' cyclic order is unchanged.
-            if (chain.size() < 2) {
-              std::vector<char> never(surf.sample->vertex_count(), 0);
-              for (int v : side == 0 ? src_anchor_of_all : can_anchor_of_all)
-                if (v >= 0) never[static_cast<std::size_t>(v)] = 1;
-              // Nor the first path of this split: touching it would enclose anchorless bits.
-              for (const auto& ch : try_traced[side])
-                for (std::uint32_t v : ch) never[v] = 1;
-              chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
-                                    static_cast<std::uint32_t>(vy), &of, patch, &never);
-            }
+    std::size_t tried = 0;
+    for (std::size_t hole_index = 0; hole_index < c.holes.size() && !split; ++hole_index) {
+      const Loop& hole = c.holes[hole_index];
+      if (hole.anchors.empty()) continue;
+      // Two paths, first loop -> hole, between the same anchors on both sides. Candidates: each
+      // anchor a1 of the first loop, nearest the hole first (canonical positions), with the
+      // first-loop anchor half-way round from it (a2) and, on the hole, the anchor nearest a1
+      // (b1) and the one half-way round from that (b2). A candidate is kept when both paths exist
+      // on both sides and the two layouts still have the same patch keys (a path leaving an
+      // anchor into a one-triangle wedge, measured on the OpenCASCADE hub, has none).
+      auto canon_pos = [&](int m) { return corr.anchors[static_cast<std::size_t>(m)].canonical; };
+      auto dist = [](const double* p, const double* q) {
+        return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+      };
+      auto nearest_on_hole = [&](int a) {
+        std::size_t nearest = 0;
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < hole.anchors.size(); ++k) {
+          const double d = dist(canon_pos(hole.anchors[k]), canon_pos(a));
+          if (d < best) {
+            best = d;
+            nearest = k;
           }
-          if (chain.size() < 2) {
-            ok = false;
+        }
+        return std::make_pair(nearest, best);
+      };
+      const std::size_t M = c.anchors.size();
+      std::vector<std::pair<double, std::size_t>> order;
+      for (std::size_t i = 0; i < M; ++i)
+        order.emplace_back(nearest_on_hole(c.anchors[i]).second, i);
+      std::sort(order.begin(), order.end());
+      // An anchor where earlier splits met occurs several times on the loop, and several
+      // anchors may share one vertex (a closed edge's vertex): try each vertex once.
+      std::vector<int> seen;
+      order.erase(
+          std::remove_if(order.begin(), order.end(),
+                         [&](const std::pair<double, std::size_t>& o) {
+                           const int a =
+                               can_anchor_of_all[static_cast<std::size_t>(c.anchors[o.second])];
+                           if (std::find(seen.begin(), seen.end(), a) != seen.end()) return true;
+                           seen.push_back(a);
+                           return false;
+                         }),
+          order.end());
+      const std::vector<std::pair<double, std::size_t>> all_first = order;
+      if (order.size() > 12) order.resize(12);
+      // Traces the paths (pairs of anchors) on both sides and keeps them when the two layouts
+      // still have the same patch keys.
+      auto try_split = [&](const std::vector<std::pair<int, int>>& paths) {
+        std::vector<char> try_cuts[2] = {src_cuts, can_cuts};
+        std::vector<std::vector<std::uint32_t>> try_traced[2];
+        bool ok = true;
+        for (int side = 0; side < 2 && ok; ++side) {
+          const Surface& surf = side == 0 ? ss : cs;
+          std::vector<char>& cuts = try_cuts[side];
+          const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
+          const int patch = static_cast<int>(side == 0 ? sidx : holed);
+          const double tol = side == 0 ? src_tol : can_tol;
+          for (const auto& [x, y] : paths) {
+            const Anchor& ax = corr.anchors[static_cast<std::size_t>(x)];
+            const Anchor& ay = corr.anchors[static_cast<std::size_t>(y)];
+            const int vx = vertex_at(surf, side == 0 ? ax.source : ax.canonical, tol);
+            const int vy = vertex_at(surf, side == 0 ? ay.source : ay.canonical, tol);
+            std::vector<std::uint32_t> chain;
+            if (vx >= 0 && vy >= 0) {
+              chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
+                                    static_cast<std::uint32_t>(vy), &of, patch);
+              // A coarse mesh may have no vertex off the loops between them (a small hole near
+              // the rim: one triangle row): the path may then touch loops away from anchors, and
+              // build_patches cuts the patch open there; the anchors' cyclic order is unchanged.
+              if (chain.size() < 2) {
+                std::vector<char> never(surf.sample->vertex_count(), 0);
+                for (int v : side == 0 ? src_anchor_of_all : can_anchor_of_all)
+                  if (v >= 0) never[static_cast<std::size_t>(v)] = 1;
+                // A slit may not touch the two loops it joins away from its ends either: the
+                // piece between it and the loop would be enclosed without an anchor.
+                if (paths.size() == 1) {
+                  const Patch& pp = side == 0 ? sp[sidx] : c;
+                  for (std::uint32_t v : pp.loop) never[v] = 1;
+                  for (std::uint32_t v : pp.holes[hole_index].vertices) never[v] = 1;
+                }
+                // Nor the first path of this split: touching it would enclose anchorless bits.
+                for (const auto& ch : try_traced[side])
+                  for (std::uint32_t v : ch) never[v] = 1;
+                chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
+                                      static_cast<std::uint32_t>(vy), &of, patch, &never);
+              }
+            }
+            if (chain.size() < 2) {
+              ok = false;
+              break;
+            }
+            cut_along(surf, chain, cuts);
+            try_traced[side].push_back(std::move(chain));
+          }
+        }
+        if (!ok) return false;
+        std::vector<Patch> tsp, tcp;
+        std::string ignored;
+        if (!build_patches(ss, try_cuts[0], src_anchor, src_tol, true, tsp, ignored) ||
+            !build_patches(cs, try_cuts[1], can_anchor, can_tol, true, tcp, ignored) ||
+            tsp.size() != tcp.size())
+          return false;
+        std::vector<std::vector<int>> ks, kc;
+        for (const Patch& q : tsp) ks.push_back(q.key());
+        for (const Patch& q : tcp) kc.push_back(q.key());
+        std::sort(ks.begin(), ks.end());
+        std::sort(kc.begin(), kc.end());
+        if (ks != kc) return false;
+        src_cuts = std::move(try_cuts[0]);
+        can_cuts = std::move(try_cuts[1]);
+        for (auto& ch : try_traced[0]) src_traced.push_back(std::move(ch));
+        for (auto& ch : try_traced[1]) can_traced.push_back(std::move(ch));
+        return true;
+      };
+      if (M >= 2 && hole.anchors.size() >= 2) {
+        for (const auto& [d0, i] : order) {
+          (void)d0;
+          const int a1 = c.anchors[i], a2 = c.anchors[(i + M / 2) % M];
+          const std::size_t nearest = nearest_on_hole(a1).first;
+          const int b1 = hole.anchors[nearest];
+          const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
+          ++tried;
+          if (try_split({{a1, b1}, {a2, b2}})) {
+            split = true;
             break;
           }
-          cut_along(surf, chain, cuts);
-          try_traced[side].push_back(std::move(chain));
         }
       }
-      if (!ok) continue;
-      std::vector<Patch> tsp, tcp;
-      std::string ignored;
-      if (!build_patches(ss, try_cuts[0], src_anchor, src_tol, true, tsp, ignored) ||
-          !build_patches(cs, try_cuts[1], can_anchor, can_tol, true, tcp, ignored) ||
-          tsp.size() != tcp.size())
-        continue;
-      std::vector<std::vector<int>> ks, kc;
-      for (const Patch& q : tsp) ks.push_back(q.key());
-      for (const Patch& q : tcp) kc.push_back(q.key());
-      std::sort(ks.begin(), ks.end());
-      std::sort(kc.begin(), kc.end());
-      if (ks != kc) continue;
-      src_cuts = std::move(try_cuts[0]);
-      can_cuts = std::move(try_cuts[1]);
-      for (auto& ch : try_traced[0]) src_traced.push_back(std::move(ch));
-      for (auto& ch : try_traced[1]) can_traced.push_back(std::move(ch));
-      split = true;
-      break;
+      // Otherwise one path, a slit from the first loop to the hole: the patch stays one piece, cut
+      // open along the slit like a periodic face along its seam (patch_layout.h), which makes it
+      // a disk whose loop runs round the first loop, along the slit, round the hole and back. On
+      // a face with many holes (the OpenCASCADE hub's flange: rim, bore and five bolt holes) the
+      // two-path split runs out of anchor pairs whose paths avoid each other and the other holes
+      // on both sides; a slit needs one path and one anchor per loop, and the next round connects
+      // the next hole to the loop this one joined (a spanning tree of slits). Candidates: every
+      // (first-loop vertex, hole anchor) pair by increasing canonical distance, up to 24.
+      if (!split) {
+        // An anchor whose only triangle in the patch lies between two loop edges (a one-triangle
+        // wedge, common at the hub's rim on both sides) has no edge a path could leave it by:
+        // such candidates are skipped before tracing.
+        std::vector<char> leaves[2];
+        for (int side = 0; side < 2; ++side) {
+          const Surface& surf = side == 0 ? ss : cs;
+          const std::vector<char>& cuts = side == 0 ? src_cuts : can_cuts;
+          const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
+          const int patch = static_cast<int>(side == 0 ? sidx : holed);
+          leaves[side].assign(surf.sample->vertex_count(), 0);
+          for (int h = 0; h < 3 * surf.triangles(); ++h)
+            if (of[static_cast<std::size_t>(h / 3)] == patch && !cuts[static_cast<std::size_t>(h)])
+              leaves[side][surf.from(h)] = 1;
+        }
+        auto usable = [&](int m) {
+          const int vs = src_anchor_of_all[static_cast<std::size_t>(m)];
+          const int vc = can_anchor_of_all[static_cast<std::size_t>(m)];
+          return vs >= 0 && vc >= 0 && leaves[0][static_cast<std::size_t>(vs)] &&
+                 leaves[1][static_cast<std::size_t>(vc)];
+        };
+        std::vector<std::tuple<double, int, int>> slits;
+        for (const auto& o : all_first) {
+          const int a = c.anchors[o.second];
+          if (!usable(a)) continue;
+          for (int b : hole.anchors)
+            if (usable(b)) slits.emplace_back(dist(canon_pos(a), canon_pos(b)), a, b);
+        }
+        std::sort(slits.begin(), slits.end());
+        slits.erase(std::unique(slits.begin(), slits.end()), slits.end());
+        if (slits.size() > 24) slits.resize(24);
+        for (const auto& [d0, a, b] : slits) {
+          (void)d0;
+          ++tried;
+          if (try_split({{a, b}})) {
+            split = true;
+            break;
+          }
+        }
+      }
+      // Last, a slit from a hole anchor to the nearest vertex of the first loop that is no anchor,
+      // on each side, which becomes a new anchor (a Steiner point of the layout, as Kraevoy and
+      // Sheffer add): on a coarse mesh the hole may be one triangle row from the loop, so that no
+      // path between two anchors avoids touching a loop. The canonical side picks the vertex; the
+      // source side the nearest vertex between the same two anchors of the same loop, so the new
+      // anchor lies on the same CAD path on both sides and the neighbouring patch gets it too.
+      if (!split) {
+        const Patch& s = sp[sidx];
+        auto occurs_once = [](const std::vector<std::uint32_t>& loop, std::uint32_t v) {
+          return std::count(loop.begin(), loop.end(), v) == 1;
+        };
+        const std::vector<int> src_of = patch_of_triangles(ss, sp);
+        const std::vector<int> can_of = patch_of_triangles(cs, cp);
+        std::vector<int> hole_anchors(hole.anchors);
+        std::sort(hole_anchors.begin(), hole_anchors.end());
+        hole_anchors.erase(std::unique(hole_anchors.begin(), hole_anchors.end()),
+                           hole_anchors.end());
+        // The anchors before and after loop vertex v of patch P's first loop.
+        auto segment_of = [](const Patch& P, std::uint32_t v) {
+          const double L = P.loop_s.back();
+          const double s_p =
+              P.loop_s[std::size_t(std::find(P.loop.begin(), P.loop.end(), v) - P.loop.begin())];
+          // The last anchor at or before it along the loop (of several at one vertex, the last
+          // in loop order), and the anchor after that one.
+          const std::size_t Mp = P.anchors.size();
+          std::size_t best = 0;
+          double back = L + 1;
+          for (std::size_t k = 0; k < Mp; ++k) {
+            const double db = std::fmod(s_p - P.anchor_s[k] + 2 * L, L);
+            if (db < back - 1e-12 * L ||
+                (std::fabs(db - back) <= 1e-12 * L && P.anchor_s[(k + 1) % Mp] != P.anchor_s[k])) {
+              back = db;
+              best = k;
+            }
+          }
+          return std::make_pair(P.anchors[best], P.anchors[(best + 1) % Mp]);
+        };
+        // P's first-loop vertices that are no anchor and occur once on it; with A >= 0 only
+        // those strictly between anchors A and B.
+        auto loop_targets = [&](const Patch& P, const std::vector<int>& anchor_of, int A, int B) {
+          std::vector<char> t(anchor_of.size(), 0);
+          const double Ls = P.loop_s.back();
+          const std::size_t Ms = P.anchors.size();
+          for (std::size_t k = 0; k < Ms; ++k) {
+            if (A >= 0 && (P.anchors[k] != A || P.anchors[(k + 1) % Ms] != B)) continue;
+            const double s0 = P.anchor_s[k];
+            double len = std::fmod(P.anchor_s[(k + 1) % Ms] - s0 + 2 * Ls, Ls);
+            if (Ms == 1 || A < 0) len = 2 * Ls;
+            for (std::size_t i = 0; i < P.loop.size(); ++i) {
+              const double r = std::fmod(P.loop_s[i] - s0 + 2 * Ls, Ls);
+              const std::uint32_t v = P.loop[i];
+              if ((A < 0 || (r > 0 && r < len)) && anchor_of[v] < 0 && occurs_once(P.loop, v))
+                t[v] = 1;
+            }
+            if (A < 0) break;
+          }
+          return t;
+        };
+        for (int b : hole_anchors) {
+          const int vb[2] = {src_anchor_of_all[static_cast<std::size_t>(b)],
+                             can_anchor_of_all[static_cast<std::size_t>(b)]};
+          if (vb[0] < 0 || vb[1] < 0) continue;
+          const Surface* surf[2] = {&ss, &cs};
+          const std::vector<char>* cuts[2] = {&src_cuts, &can_cuts};
+          const std::vector<int>* of[2] = {&src_of, &can_of};
+          const Patch* P[2] = {&s, &c};
+          const std::vector<int>* anchor_of[2] = {&src_anchor_of, &can_anchor_of};
+          const int patch[2] = {int(sidx), int(holed)};
+          std::vector<std::uint32_t> chain[2];
+          // Either side may lead: the canonical first, then the source.
+          for (int lead : {1, 0}) {
+            ++tried;
+            const int follow = 1 - lead;
+            chain[lead] = shortest_path_to_any(
+                *surf[lead], *cuts[lead], static_cast<std::uint32_t>(vb[lead]),
+                loop_targets(*P[lead], *anchor_of[lead], -1, -1), *of[lead], patch[lead]);
+            if (chain[lead].size() < 2) continue;
+            const auto [A, B] = segment_of(*P[lead], chain[lead].back());
+            chain[follow] = shortest_path_to_any(
+                *surf[follow], *cuts[follow], static_cast<std::uint32_t>(vb[follow]),
+                loop_targets(*P[follow], *anchor_of[follow], A, B), *of[follow], patch[follow]);
+            // The two slits must be alike: a follower path much longer than the leader's went
+            // round something the leader's did not (measured on the hub: 76 edges against 10, and
+            // hundreds of inverted tets after).
+            if (chain[follow].size() >= 2) {
+              auto length = [](const Surface& sf, const std::vector<std::uint32_t>& ch) {
+                double l = 0;
+                for (std::size_t i = 0; i + 1 < ch.size(); ++i) {
+                  const double* x = sf.position(ch[i]);
+                  const double* y = sf.position(ch[i + 1]);
+                  l += std::hypot(x[0] - y[0], x[1] - y[1], x[2] - y[2]);
+                }
+                return l;
+              };
+              const double ratio =
+                  (length(*surf[follow], chain[follow]) / surf[follow]->sample->bbox_diagonal()) /
+                  (length(*surf[lead], chain[lead]) / surf[lead]->sample->bbox_diagonal());
+              if (ratio < 2.0 && ratio > 0.5) break;
+              chain[follow].clear();
+            }
+          }
+          if (chain[0].size() < 2 || chain[1].size() < 2) continue;
+          const std::vector<std::uint32_t>& chain_s = chain[0];
+          const std::vector<std::uint32_t>& chain_c = chain[1];
+          const std::uint32_t ps = chain_s.back(), pc = chain_c.back();
+          // The new anchor, and every table of anchors (positions are held by pointer).
+          Anchor na;
+          na.id = {-1, static_cast<std::int64_t>(corr.anchors.size())};
+          for (int a = 0; a < 3; ++a) {
+            na.source[a] = source.vertices[3 * std::size_t(ps) + std::size_t(a)];
+            na.canonical[a] = canonical.vertices[3 * std::size_t(pc) + std::size_t(a)];
+          }
+          corr.anchors.push_back(na);
+          auto refresh = [&] {
+            src_anchor.clear();
+            can_anchor.clear();
+            for (const Anchor& a : corr.anchors) {
+              src_anchor.push_back(a.source);
+              can_anchor.push_back(a.canonical);
+            }
+          };
+          refresh();
+          std::vector<char> try_src = src_cuts, try_can = can_cuts;
+          cut_along(ss, chain_s, try_src);
+          cut_along(cs, chain_c, try_can);
+          std::vector<Patch> tsp, tcp;
+          std::string ignored;
+          bool same = build_patches(ss, try_src, src_anchor, src_tol, true, tsp, ignored) &&
+                      build_patches(cs, try_can, can_anchor, can_tol, true, tcp, ignored) &&
+                      tsp.size() == tcp.size();
+          if (same) {
+            std::vector<std::vector<int>> ks, kc;
+            for (const Patch& q : tsp) ks.push_back(q.key());
+            for (const Patch& q : tcp) kc.push_back(q.key());
+            std::sort(ks.begin(), ks.end());
+            std::sort(kc.begin(), kc.end());
+            same = ks == kc;
+          }
+          if (!same) {
+            corr.anchors.pop_back();
+            refresh();
+            continue;
+          }
+          const int m = static_cast<int>(corr.anchors.size() - 1);
+          src_anchor_of[ps] = m;
+          can_anchor_of[pc] = m;
+          src_anchor_of_all.push_back(static_cast<int>(ps));
+          can_anchor_of_all.push_back(static_cast<int>(pc));
+          src_cuts = std::move(try_src);
+          can_cuts = std::move(try_can);
+          src_traced.push_back(chain_s);
+          can_traced.push_back(chain_c);
+          split = true;
+          break;
+        }
+      }
     }
     if (!split) {
       why =
-          "mapping: no pair of paths splits a patch with a hole the same way on both sides "
-          "(anchors not at mesh vertices, blocked, or the layouts differ after the split; " +
-          std::to_string(order.size()) + " candidates tried)";
+          "mapping: no paths split a patch with a hole the same way on both sides (anchors "
+          "not at mesh vertices, blocked, or the layouts differ after the split; " +
+          std::to_string(tried) + " candidates tried)";
       return false;
     }
   }
@@ -563,6 +796,14 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   std::vector<char> on_surface(V, 0), assigned(V, 0);
   for (std::uint32_t v : canonical.triangles) on_surface[v] = 1;
   std::vector<SurfacePoint> where(V);
+  // Each boundary vertex's freedom on the source surface, for the boundary untangling after the
+  // interior solve (boundary_untangle.h): anchors fixed, loop vertices along their source path
+  // (arc length within their segment between two anchors, and between their loop neighbours so
+  // the order along the path is kept), inner vertices in their patch's source disk.
+  std::vector<BoundaryDof> dofs;
+  std::vector<int> dof_of(V, -1);
+  std::vector<std::unique_ptr<DiskMap>> source_disks(cp.size());
+  std::vector<std::unique_ptr<DiskLocator>> source_locators(cp.size());
   for (std::size_t pi = 0; pi < cp.size(); ++pi) {
     const Patch& c = cp[pi];
     const Patch& s = sp[static_cast<std::size_t>(source_of[pi])];
@@ -587,7 +828,13 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       return uv;
     };
     // Loop vertices: along the source loop at the same segment and fraction.
-    for (std::size_t i = 0; i < c.loop.size(); ++i) {
+    const std::size_t n_loop = c.loop.size();
+    struct LoopDof {
+      std::size_t index, dof;
+      double seg_lo, seg_hi;  // the segment's anchors' arc lengths
+    };
+    std::vector<LoopDof> loop_dofs;
+    for (std::size_t i = 0; i < n_loop; ++i) {
       const std::uint32_t v = c.loop[i];
       if (assigned[v]) continue;
       std::size_t k;
@@ -595,19 +842,71 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       cf.locate(c.loop_s[i], k, f);
       where[v] = loop_point(s, sf.arc(k, f));
       assigned[v] = 1;
+      if (can_anchor_of[v] >= 0 || !(f > 0 && f < 1)) continue;  // an anchor: fixed
+      // Neighbours along the loop, in source arc length relative to the first anchor; one in
+      // another segment bounds at this segment's anchor.
+      auto rel_of = [&](std::size_t j, bool previous) {
+        std::size_t kj;
+        double fj;
+        cf.locate(c.loop_s[j], kj, fj);
+        if (kj != k) return previous ? sf.rel[k] : sf.rel[k] + sf.seg[k];
+        return sf.rel[k] + fj * sf.seg[k];
+      };
+      const double r = sf.rel[k] + f * sf.seg[k];
+      const double r_prev = std::min(r, rel_of((i + n_loop - 1) % n_loop, true));
+      const double r_next = std::max(r, rel_of((i + 1) % n_loop, false));
+      BoundaryDof d;
+      d.vertex = v;
+      d.dims = 1;
+      // Absolute arc length along the source loop (loop_point's argument). Bounds: the
+      // segment's anchors, and half-way to a neighbour whose dof is not on this loop; the
+      // neighbours on it bound dynamically (BoundaryDof::prev / next, linked below).
+      d.p[0] = sf.origin + r;
+      d.lo = sf.origin + 0.5 * (r_prev + r);
+      d.hi = sf.origin + 0.5 * (r + r_next);
+      d.step = 0.5 * (d.hi - d.lo);
+      loop_dofs.push_back(
+          {i, dofs.size(), sf.origin + sf.rel[k], sf.origin + sf.rel[k] + sf.seg[k]});
+      d.patch = static_cast<int>(pi);
+      dof_of[v] = static_cast<int>(dofs.size());
+      dofs.push_back(d);
+    }
+    // Loop neighbours whose dofs lie on this loop (recorded just now, so on the same arc
+    // length) bound each other; where both neighbours are on it, the bounds widen to the
+    // segment, so that a vertex can pass a source vertex its neighbours' mid-points would block.
+    for (std::size_t j = 0; j < loop_dofs.size(); ++j) {
+      BoundaryDof& d = dofs[loop_dofs[j].dof];
+      const std::size_t i = loop_dofs[j].index;
+      const auto on_loop = [&](std::size_t other) -> int {
+        for (const LoopDof& o : loop_dofs)
+          if (o.index == other) return static_cast<int>(o.dof);
+        return -1;
+      };
+      const int prev = on_loop((i + n_loop - 1) % n_loop), next = on_loop((i + 1) % n_loop);
+      if (prev >= 0 && dofs[std::size_t(prev)].p[0] < d.p[0]) {
+        d.prev = prev;
+        d.lo = std::max(loop_dofs[j].seg_lo, d.p[0] - (loop_dofs[j].seg_hi - loop_dofs[j].seg_lo));
+      }
+      if (next >= 0 && dofs[std::size_t(next)].p[0] > d.p[0]) {
+        d.next = next;
+        d.hi = std::min(loop_dofs[j].seg_hi, d.p[0] + (loop_dofs[j].seg_hi - loop_dofs[j].seg_lo));
+      }
     }
     // Interior vertices of the patch (if any): through the disks.
     bool interior = false;
     for (int t : c.triangles)
       for (int k = 0; k < 3 && !interior; ++k) interior = !assigned[cs.from(3 * t + k)];
     if (!interior) continue;
-    DiskMap cd, sd;
+    DiskMap cd;
+    source_disks[pi] = std::make_unique<DiskMap>();
+    DiskMap& sd = *source_disks[pi];
     if (!mean_value_parametrize(cs, c, loop_uv(c, cf), cd, why) ||
         !mean_value_parametrize(ss, s, loop_uv(s, sf), sd, why)) {
       why = "mapping: " + why;
       return false;
     }
-    const DiskLocator locator(sd);
+    source_locators[pi] = std::make_unique<DiskLocator>(sd);
+    const DiskLocator& locator = *source_locators[pi];
     std::vector<std::size_t> inner;  // local vertices of cd placed through the disks
     for (std::size_t l = 0; l < cd.vertices.size(); ++l)
       if (!assigned[cd.vertices[l]]) inner.push_back(l);
@@ -615,6 +914,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       where[cd.vertices[l]] = disk_point(sd, locator, &cd.uv[2 * l]);
       assigned[cd.vertices[l]] = 1;
     }
+    std::vector<double> inner_uv(cd.uv);  // the disk coordinates finally used
     if (options.relax_iterations > 0 && !inner.empty()) {
       // The relaxation is kept only where it brings this patch nearer to the source's (the
       // larger distance from a source patch vertex to the mapped patch, the builder's
@@ -640,8 +940,33 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
         return d;
       };
-      if (gap(&relaxed) < gap(nullptr))
+      if (gap(&relaxed) < gap(nullptr)) {
         for (std::size_t i = 0; i < inner.size(); ++i) where[cd.vertices[inner[i]]] = relaxed[i];
+        inner_uv = uv;
+      }
+    }
+    for (std::size_t l : inner) {
+      const std::uint32_t v = cd.vertices[l];
+      if (can_anchor_of[v] >= 0 || dof_of[v] >= 0) continue;
+      BoundaryDof d;
+      d.vertex = v;
+      d.dims = 2;
+      d.p[0] = inner_uv[2 * l];
+      d.p[1] = inner_uv[2 * l + 1];
+      // The initial step: half the size of the source disk triangle it lies in.
+      int tri;
+      double w[3];
+      locator.locate(d.p[0], d.p[1], tri, w);
+      const int* q = &sd.triangles[3 * std::size_t(tri)];
+      const double* ua = &sd.uv[2 * std::size_t(q[0])];
+      const double* ub = &sd.uv[2 * std::size_t(q[1])];
+      const double* uc = &sd.uv[2 * std::size_t(q[2])];
+      const double area =
+          0.5 * std::fabs((ub[0] - ua[0]) * (uc[1] - ua[1]) - (ub[1] - ua[1]) * (uc[0] - ua[0]));
+      d.step = 0.5 * std::sqrt(2 * area);
+      d.patch = static_cast<int>(pi);
+      dof_of[v] = static_cast<int>(dofs.size());
+      dofs.push_back(d);
     }
   }
   out.vertices = canonical.vertices;
@@ -662,7 +987,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   // tets stay inverted, once more in MapOptions::fallback_steps boundary increments with
   // volume-stiffened tets (measured on the OpenCASCADE wrench, 10 random pairs: one harmonic
   // solve 5 mapped, 4 increments alone 5, stiffening alone 5 (exponent 1) or 4 (2), both 8).
-  const std::vector<double> surface_map = out.vertices;
+  std::vector<double> surface_map = out.vertices;
   auto interior = [&](int steps, double stiffening, TetQuality& q) {
     out.vertices = surface_map;
     if (!incremental_interior(canonical.vertices, canonical.tets, on_surface, out.vertices, why,
@@ -685,16 +1010,88 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     }
     return true;
   };
+  auto solve = [&](TetQuality& q) {
+    if (!interior(options.interior_steps, options.stiffening, q)) return false;
+    if (q.inverted > 0 && options.fallback_steps > 0) {
+      const std::vector<double> first = out.vertices;
+      TetQuality q2;
+      if (!interior(options.fallback_steps, options.fallback_stiffening, q2)) return false;
+      if (q2.inverted < q.inverted) {
+        q = q2;
+      } else {
+        out.vertices = first;
+      }
+    }
+    return true;
+  };
   TetQuality q;
-  if (!interior(options.interior_steps, options.stiffening, q)) return false;
-  if (q.inverted > 0 && options.fallback_steps > 0) {
-    const std::vector<double> first = out.vertices;
-    TetQuality q2;
-    if (!interior(options.fallback_steps, options.fallback_stiffening, q2)) return false;
-    if (q2.inverted < q.inverted) {
-      q = q2;
-    } else {
-      out.vertices = first;
+  if (!solve(q)) return false;
+  // Boundary untangling (boundary_untangle.h): tets that stay inverted after the interior solve,
+  // most of them with all four vertices on the boundary (measured on the OpenCASCADE press and
+  // mount), get their boundary vertices moved within the source surface, then the interior is
+  // solved again for the moved boundary; repeated while it helps.
+  std::size_t boundary_moved = 0;
+  if (q.inverted > 0 && options.boundary_untangle_passes > 0) {
+    auto point_of = [&](const BoundaryDof& d, const double* p, SurfacePoint& pt) {
+      const std::size_t pi = static_cast<std::size_t>(d.patch);
+      if (d.dims == 1) {
+        pt = loop_point(sp[static_cast<std::size_t>(source_of[pi])], p[0]);
+        return true;
+      }
+      if (std::hypot(p[0], p[1]) > 0.999) return false;  // inner vertices stay off the circle
+      pt = disk_point(*source_disks[pi], *source_locators[pi], p);
+      return true;
+    };
+    const PlaceFn place = [&](const BoundaryDof& d, const double* p, double* x) {
+      SurfacePoint pt;
+      if (!point_of(d, p, pt)) return false;
+      position_of(source, pt, x);
+      return true;
+    };
+    std::vector<char> free_vertex(V);
+    for (std::size_t v = 0; v < V; ++v) free_vertex[v] = on_surface[v] ? 0 : 1;
+    const std::vector<BoundaryDof> initial = dofs;
+    std::vector<double> best = out.vertices;
+    std::vector<BoundaryDof> best_dofs = dofs;
+    TetQuality best_q = q;
+    for (int pass = 0; pass < options.boundary_untangle_passes && best_q.inverted > 0; ++pass) {
+      double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+      for (std::size_t v = 0; v < V; ++v)
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], out.vertices[3 * v + std::size_t(a)]);
+          hi[a] = std::max(hi[a], out.vertices[3 * v + std::size_t(a)]);
+        }
+      const double diag = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+      const BoundaryUntangleResult r =
+          untangle_boundary(canonical.tets, dof_of, dofs, place, 1e-12 * diag * diag * diag,
+                            out.vertices, &free_vertex);
+      q = tet_quality(out.vertices, canonical.tets);
+      if (q.inverted < best_q.inverted) {
+        best = out.vertices;
+        best_dofs = dofs;
+        best_q = q;
+      }
+      if (best_q.inverted == 0 || r.moved == 0) break;
+      // The interior once more for the moved boundary (the harmonic solve spreads the boundary
+      // moves into the interior, which the local search alone cannot), then the next pass.
+      for (std::size_t v = 0; v < V; ++v)
+        if (on_surface[v])
+          for (std::size_t a = 0; a < 3; ++a) surface_map[3 * v + a] = out.vertices[3 * v + a];
+      if (!solve(q)) return false;
+      if (q.inverted < best_q.inverted) {
+        best = out.vertices;
+        best_dofs = dofs;
+        best_q = q;
+      }
+    }
+    out.vertices = std::move(best);
+    dofs = std::move(best_dofs);
+    q = best_q;
+    // The surface points of the moved boundary vertices (the field transfer's weights).
+    for (std::size_t i = 0; i < dofs.size(); ++i) {
+      if (dofs[i].p[0] == initial[i].p[0] && dofs[i].p[1] == initial[i].p[1]) continue;
+      point_of(dofs[i], dofs[i].p, where[dofs[i].vertex]);
+      ++boundary_moved;
     }
   }
   if (stats) {
@@ -704,6 +1101,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->dropped_anchors = dropped_anchors;
     stats->min_scaled_jacobian = q.min_scaled_jacobian;
     stats->inverted = q.inverted;
+    stats->boundary_moved = boundary_moved;
   }
   if (q.inverted > 0) {
     // Tets with all four vertices on the boundary are fixed by the surface map alone: no

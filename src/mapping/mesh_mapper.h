@@ -25,6 +25,7 @@ struct MapStats {
   std::size_t dropped_anchors = 0;  ///< matched points not at a mesh vertex on both sides
   double min_scaled_jacobian = 0;   ///< of the mapped canonical tets
   std::size_t inverted = 0;         ///< mapped tets inverted or flat (a failure when > 0)
+  std::size_t boundary_moved = 0;   ///< boundary vertices moved by the boundary untangling
 };
 
 /// Tuning of one mapping (defaults are the builder's).
@@ -38,6 +39,10 @@ struct MapOptions {
   /// (0 steps: no second solve).
   int fallback_steps = 4;
   double fallback_stiffening = 1.0;
+  /// Where tets stay inverted after that: passes of boundary untangling (boundary_untangle.h,
+  /// boundary vertices moved within the source surface) each followed by the interior solve
+  /// (0: none).
+  int boundary_untangle_passes = 3;
 };
 
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
