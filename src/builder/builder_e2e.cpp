@@ -8,6 +8,9 @@
 
 #include "builder/surface_distance.h"
 #include "cadinterp/cadinterp.h"
+#ifdef CADINTERP_HAVE_MAPPING
+#include "mapping/field_transfer.h"
+#endif
 
 namespace cadinterp::builder {
 
@@ -51,7 +54,7 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
 }
 
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
-                                unsigned seed, const FieldTruthAt& field_truth) {
+                                unsigned seed, const FieldTruthAt& field_truth, bool count_lost) {
   cadinterp_asset* raw = nullptr;
   if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
     throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
@@ -72,7 +75,26 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
 
   std::mt19937 rng(seed);
   AccuracyReport r;
+  for (int f : fields) {
+    cadinterp_field_info info;
+    cadinterp_field(asset.get(), f, &info);
+    r.field_names.emplace_back(info.name);
+  }
   std::vector<double> geo, fld;
+  // Per field, the error at each compared point (the max over its vertices).
+  std::vector<std::vector<double>> by_field(fields.size());
+  std::vector<double> point_field(fields.size());
+  std::vector<std::vector<double>> pooled(fields.size());  // every vertex value's error
+  auto note = [&point_field, &pooled](std::size_t k, double err, double& point_max) {
+    point_max = std::max(point_max, err);
+    point_field[k] = std::max(point_field[k], err);
+    pooled[k].push_back(err);
+  };
+  auto finish_point = [&](double point_max) {
+    fld.push_back(point_max);
+    for (std::size_t k = 0; k < fields.size(); ++k) by_field[k].push_back(point_field[k]);
+    ++r.field_points;
+  };
   const int K = host.dim();
   for (int i = 0; i < points; ++i) {
     std::vector<double> x(static_cast<std::size_t>(K));
@@ -81,11 +103,15 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
           std::uniform_real_distribution<double>(host.lower()[static_cast<std::size_t>(d)],
                                                  host.upper()[static_cast<std::size_t>(d)])(rng);
     ++r.points;
+    std::fill(point_field.begin(), point_field.end(), 0.0);
     cadinterp_mesh m;
     const cadinterp_status st =
         cadinterp_eval(ws.get(), x.data(), fields.data(), static_cast<int>(fields.size()), &m);
     if (st == CADINTERP_E_INFEASIBLE) {
       ++r.infeasible;
+      // Whether the host could have answered: the part of the feasible box the asset lost
+      // (elements refused around it) rather than points the host itself refuses.
+      if (count_lost && host.evaluate(x.data()).feasible) ++r.lost;
       continue;
     }
     if (st != CADINTERP_OK)
@@ -108,16 +134,44 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
           const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
           if (!field_truth(fields[k], x.data(), p, value.data())) continue;
           for (std::size_t c = 0; c < C; ++c)
-            e = std::max(e,
-                         std::abs(static_cast<double>(m.fields[k][v * C + c]) - value[c]) / range);
+            note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - value[c]) / range, e);
         }
       }
-      fld.push_back(e);
+      finish_point(e);
       continue;
     }
     const bool same = truth.vertex_count() == m.vertex_count && truth.tet_count() == m.tet_count &&
                       std::equal(truth.tets.begin(), truth.tets.end(), m.tets);
-    if (!same) continue;
+    if (!same) {
+#ifdef CADINTERP_HAVE_MAPPING
+      // A mapped element (§6): the evaluated mesh is not the host's, so the truth at each
+      // evaluated vertex is the host's field interpolated barycentrically in the host's tet that
+      // contains the vertex (the nearest tet for boundary vertices a geometry error outside).
+      const mapping::TetLocator locator(truth);
+      double e = 0;
+      for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
+        const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
+        double w[4];
+        const int t = locator.locate(p, w);
+        if (t < 0) continue;
+        for (std::size_t k = 0; k < fields.size(); ++k) {
+          const auto fi = static_cast<std::size_t>(fields[k]);
+          if (fi >= truth.fields.size()) continue;
+          const builder::Field& tf = truth.fields[fi];
+          const auto C = static_cast<std::size_t>(tf.components);
+          const double range = value_range(tf.values);
+          for (std::size_t c = 0; c < C; ++c) {
+            double want = 0;
+            for (std::size_t j = 0; j < 4; ++j)
+              want += w[j] * tf.values[truth.tets[4 * static_cast<std::size_t>(t) + j] * C + c];
+            note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - want) / range, e);
+          }
+        }
+      }
+      finish_point(e);
+#endif
+      continue;
+    }
     double e = 0;
     for (std::size_t k = 0; k < fields.size(); ++k) {
       const auto fi = static_cast<std::size_t>(fields[k]);
@@ -125,9 +179,15 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
       const std::vector<double>& tv = truth.fields[fi].values;
       const double range = value_range(tv);
       for (std::size_t v = 0; v < tv.size(); ++v)
-        e = std::max(e, std::abs(static_cast<double>(m.fields[k][v]) - tv[v]) / range);
+        note(k, std::abs(static_cast<double>(m.fields[k][v]) - tv[v]) / range, e);
     }
-    fld.push_back(e);
+    finish_point(e);
+  }
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    const std::vector<double>& f = by_field[k];
+    r.field_max_by_field.push_back(f.empty() ? 0.0 : *std::max_element(f.begin(), f.end()));
+    r.field_p99_by_field.push_back(percentile99(f));
+    r.field_vertex_p99_by_field.push_back(percentile99(std::move(pooled[k])));
   }
   if (!geo.empty()) r.geometry_max = *std::max_element(geo.begin(), geo.end());
   if (!fld.empty()) r.field_max = *std::max_element(fld.begin(), fld.end());
