@@ -119,6 +119,10 @@ int pairs(const std::vector<std::string>& args) {
            "passes of boundary untangling (surface vertices moved within the source surface, "
            "then the interior again) where tets stay inverted (0: none)",
            &mo.boundary_untangle_passes, 0, 100);
+  p.option("smooth", 0, "A",
+           "Phong shape factor of the source reconstruction the boundary is placed on (0: the "
+           "flat source triangles)",
+           &mo.smooth_alpha, 0.0, 1.0);
   if (!p.parse(args)) return 0;
   mo.stiffening = stiffen;
   for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;

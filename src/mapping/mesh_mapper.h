@@ -26,6 +26,7 @@ struct MapStats {
   double min_scaled_jacobian = 0;   ///< of the mapped canonical tets
   std::size_t inverted = 0;         ///< mapped tets inverted or flat (a failure when > 0)
   std::size_t boundary_moved = 0;   ///< boundary vertices moved by the boundary untangling
+  bool smoothed = false;  ///< boundary on the smooth reconstruction (false: flat triangles)
 };
 
 /// Tuning of one mapping (defaults are the builder's).
@@ -43,6 +44,12 @@ struct MapOptions {
   /// boundary vertices moved within the source surface) each followed by the interior solve
   /// (0: none).
   int boundary_untangle_passes = 3;
+  /// Canonical boundary vertices are placed on the source's Phong reconstruction per B-rep face
+  /// (smooth_surface.h) with this shape factor; 0 places them on the flat source triangles.
+  /// 1/2 reproduces a circular arc to second order (the chord's sag), so the mapped points
+  /// lie on the CAD surface as closely as the canonical's own vertices do. Where tets stay
+  /// inverted, the mapping is redone on the flat triangles and kept if that succeeds.
+  double smooth_alpha = 0.5;
 };
 
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
@@ -58,7 +65,8 @@ class MeshMapper final : public builder::Mapper {
            builder::MappedSample& out, std::string& why) const override {
     return map_sample(source, canonical, out, why, nullptr);
   }
-  const char* name() const override { return "mesh-v1"; }
+  // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface.
+  const char* name() const override { return "mesh-v2"; }
 };
 
 }  // namespace cadinterp::mapping
