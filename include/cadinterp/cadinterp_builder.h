@@ -269,15 +269,15 @@ CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder*
 
 /** What cadinterp_build_report cannot carry (it has no size member, so it cannot grow). */
 typedef struct cadinterp_build_stages {
-  size_t struct_size;      /**< sizeof(cadinterp_build_stages), set by the caller */
-  int points_requested;    /**< distinct sample points the refinement asked for */
-  int infeasible_reasons;  /**< distinct messages listed by cadinterp_builder_infeasible_reason */
+  size_t struct_size;     /**< sizeof(cadinterp_build_stages), set by the caller */
+  int points_requested;   /**< distinct sample points the refinement asked for */
+  int infeasible_reasons; /**< distinct messages listed by cadinterp_builder_infeasible_reason */
   int other_infeasible_points; /**< infeasible points whose message is not listed */
-  double store_seconds;      /**< opening the sample store */
-  double sampling_seconds;   /**< waves of sample points: store reads, host, store writes */
-  double refinement_seconds; /**< error tests of the adaptive refinement (mapping included) */
-  double elements_seconds;   /**< canonical meshes, terms mapped into them, asset content */
-  double write_seconds;      /**< encoding and writing the asset */
+  double store_seconds;        /**< opening the sample store */
+  double sampling_seconds;     /**< waves of sample points: store reads, host, store writes */
+  double refinement_seconds;   /**< error tests of the adaptive refinement (mapping included) */
+  double elements_seconds;     /**< canonical meshes, terms mapped into them, asset content */
+  double write_seconds;        /**< encoding and writing the asset */
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed. Fills at most

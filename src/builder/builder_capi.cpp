@@ -250,8 +250,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const
     w.position_max_abs_error = b->options.position_max_abs_error;
     cadinterp::format::write_asset_file(r.content, w, path);
     b->details.counts.asset_bytes = std::filesystem::file_size(path);
-    b->write_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    b->write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     b->details.counts.wall_seconds += b->write_seconds;
     b->error.clear();
     return CADINTERP_OK;

@@ -508,7 +508,8 @@ void blend_rows_c(const float* const* a, const float* w, std::size_t terms,
   for (std::size_t r0 = 0; r0 < n; r0 += kRows) {
     const std::size_t r1 = n - r0 < kRows ? n : r0 + kRows;
     blend_rows_term<true, C>(w[0], a[0], ids, r0, r1, c, out);
-    for (std::size_t t = 1; t < terms; ++t) blend_rows_term<false, C>(w[t], a[t], ids, r0, r1, c, out);
+    for (std::size_t t = 1; t < terms; ++t)
+      blend_rows_term<false, C>(w[t], a[t], ids, r0, r1, c, out);
   }
 }
 

@@ -552,8 +552,8 @@ void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCop
         for (int k = 0; k < 3; ++k) {
           const float got = sub.positions[3 * i + k];
           const float want = base_positions[3 * std::size_t(ids[i]) + std::size_t(k)];
-          CHECK(std::fabs(got - want) <= 1e-4f * scale, "eval_subset row %d (vertex %u) %g, eval %g",
-                i, ids[i], double(got), double(want));
+          CHECK(std::fabs(got - want) <= 1e-4f * scale,
+                "eval_subset row %d (vertex %u) %g, eval %g", i, ids[i], double(got), double(want));
         }
     } else {
       CHECK(st == CADINTERP_E_CHECKSUM || st == CADINTERP_E_CORRUPT_BLOB,

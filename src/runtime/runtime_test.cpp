@@ -193,8 +193,8 @@ TEST(Runtime, EvalSubsetMatchesFullEvalRowByRow) {
         if (rng() % 3 == 0) tids.push_back(t);
       tids.push_back(full.tet_count - 1);
       cadinterp_mesh sub;
-      ASSERT_EQ(cadinterp_eval_subset(o->ws, x, vids.data(), vids.size(), tids.data(),
-                                      tids.size(), fields, 2, &sub),
+      ASSERT_EQ(cadinterp_eval_subset(o->ws, x, vids.data(), vids.size(), tids.data(), tids.size(),
+                                      fields, 2, &sub),
                 CADINTERP_OK)
           << cadinterp_workspace_error(o->ws);
       ASSERT_EQ(sub.element, full.element);

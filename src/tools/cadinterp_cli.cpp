@@ -1403,7 +1403,8 @@ int cmd_build(const std::vector<std::string>& args) {
   cadinterp_builder_stages(builder.get(), &st);
   // What the run did, also when it failed (cadinterp_builder_report covers every exit path).
   auto print_summary = [&](std::FILE* out) {
-    std::fprintf(out, "  samples            %d (points requested %d, host evaluations %d, from the "
+    std::fprintf(out,
+                 "  samples            %d (points requested %d, host evaluations %d, from the "
                  "store %d, infeasible %d)\n",
                  r.samples, st.points_requested, r.host_evaluations, r.store_hits,
                  r.infeasible_points);
@@ -1417,13 +1418,13 @@ int cmd_build(const std::vector<std::string>& args) {
       std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
     std::fprintf(out, "  elements           %d (infeasible %d)\n", r.elements,
                  r.infeasible_elements);
-    std::fprintf(out,
-                 "  stages             store %s, sampling %s, refinement %s, elements %s, "
-                 "writing %s\n",
-                 human_seconds(st.store_seconds).c_str(), human_seconds(st.sampling_seconds).c_str(),
-                 human_seconds(st.refinement_seconds).c_str(),
-                 human_seconds(st.elements_seconds).c_str(),
-                 human_seconds(st.write_seconds).c_str());
+    std::fprintf(
+        out,
+        "  stages             store %s, sampling %s, refinement %s, elements %s, "
+        "writing %s\n",
+        human_seconds(st.store_seconds).c_str(), human_seconds(st.sampling_seconds).c_str(),
+        human_seconds(st.refinement_seconds).c_str(), human_seconds(st.elements_seconds).c_str(),
+        human_seconds(st.write_seconds).c_str());
   };
   if (s != CADINTERP_OK) {
     std::fprintf(stderr, "build summary (failed after %s)\n", human_seconds(wall).c_str());

@@ -266,18 +266,19 @@ int main(int argc, char** argv) {
       fem_p99 = std::max(fem_p99, r.acc.field_vertex_p99_by_field[k]);
     }
     if (r.acc.field_points == 0) {
-      std::printf("         %-11s  %d (%d infeasible, %d lost)  %.4f (%.4f)  %.4f (%.4f)  n/a: no field "
-                  "compared\n",
-                  r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.lost, r.acc.geometry_max,
-                  p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0);
+      std::printf(
+          "         %-11s  %d (%d infeasible, %d lost)  %.4f (%.4f)  %.4f (%.4f)  n/a: no field "
+          "compared\n",
+          r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.lost, r.acc.geometry_max,
+          p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0);
       continue;
     }
     std::printf(
         "         %-11s  %d (%d infeasible, %d lost)  %.4f (%.4f)  %.4f (%.4f)  %.4f (%.4f)  "
         "%.4f (%.4f)\n",
         r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.lost, r.acc.geometry_max,
-        p ? p->gmax : 0,
-        r.acc.geometry_p99, p ? p->g99 : 0, fem_max, p ? p->fmax : 0, fem_p99, p ? p->f99 : 0);
+        p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0, fem_max, p ? p->fmax : 0, fem_p99,
+        p ? p->f99 : 0);
     for (std::size_t k = 0; k < r.acc.field_names.size(); ++k)
       std::printf(
           "           field %-14s max %.4f  99%% of values %.4f  99%% of per-point max %.4f  "
