@@ -398,25 +398,35 @@ class Asset {
     const { p: pf, idx } = this.#putFields(fieldNames, 'eval');
     const out = this.#scratch + S_OUT;
     this.#check(m._cadinterp_eval(this.#ws, px, pf, idx.length, out), null);
+    return this.#readMesh(out, idx, opts, null);
+  }
+
+  /**
+   * The cadinterp_mesh at `out` as JS: views of the heap (copies with opts.copy). `rows`: the
+   * rows of positions and fields, {v, t} from evalSubset; null for the whole mesh's #V and #T.
+   */
+  #readMesh(out, idx, opts, rows) {
+    const m = this.#mod;
     const u32 = m.HEAPU32;
     const o = out >> 2;
     const element = m.HEAP32[o];
     const v = u32[o + 1], t = u32[o + 2], f = u32[o + 3];
     this.#vertexCounts.set(element, { v, t });
+    const rv = rows ? rows.v : v, rt = rows ? rows.t : t;
     const buf = m.HEAPU8.buffer;
     const copy = !!opts?.copy;
     const view = (Type, p, n) => (copy ? new Type(buf, p, n).slice() : new Type(buf, p, n));
     const fields = {};
     const fp = u32[o + 8] >> 2;
     idx.forEach((fi, k) => {
-      fields[this.#fieldInfo[fi].name] = view(Float32Array, u32[fp + k], this.#fieldLength(fi, v, t));
+      fields[this.#fieldInfo[fi].name] = view(Float32Array, u32[fp + k], this.#fieldLength(fi, rv, rt));
     });
     return {
       element,
       vertexCount: v,
       tetCount: t,
       triangleCount: f,
-      positions: view(Float32Array, u32[o + 7], 3 * v),
+      positions: view(Float32Array, u32[o + 7], 3 * rv),
       tets: view(Uint32Array, u32[o + 4], 4 * t),
       triangles: view(Uint32Array, u32[o + 5], 3 * f),
       triangleTags: view(Int32Array, u32[o + 6], f),
@@ -480,30 +490,7 @@ class Asset {
     put(ts, pt, 'tets');
     const out = this.#scratch + S_OUT;
     this.#check(m._cadinterp_eval_subset(this.#ws, px, pv, nv, pt, nt, pf, idx.length, out), null);
-    const u32 = m.HEAPU32;
-    const o = out >> 2;
-    const element = m.HEAP32[o];
-    const v = u32[o + 1], t = u32[o + 2], f = u32[o + 3];
-    this.#vertexCounts.set(element, { v, t });
-    const buf = m.HEAPU8.buffer;
-    const copy = !!opts?.copy;
-    const view = (Type, p, n) => (copy ? new Type(buf, p, n).slice() : new Type(buf, p, n));
-    const fields = {};
-    const fp = u32[o + 8] >> 2;
-    idx.forEach((fi, k) => {
-      fields[this.#fieldInfo[fi].name] = view(Float32Array, u32[fp + k], this.#fieldLength(fi, nv, nt));
-    });
-    return {
-      element,
-      vertexCount: v,
-      tetCount: t,
-      triangleCount: f,
-      positions: view(Float32Array, u32[o + 7], 3 * nv),
-      tets: view(Uint32Array, u32[o + 4], 4 * t),
-      triangles: view(Uint32Array, u32[o + 5], 3 * f),
-      triangleTags: view(Int32Array, u32[o + 6], f),
-      fields,
-    };
+    return this.#readMesh(out, idx, opts, { v: nv, t: nt });
   }
 
   /**

@@ -19,24 +19,8 @@ namespace {
 using namespace cadinterp::physics;
 using namespace cadinterp::physics::testing;
 
-Problem cantilever(int n, bool elastic, int order) {
-  Problem p;
-  p.mesh = box_mesh(2, 1, 1, 2 * n, n, n);  // (2n+1)(n+1)^2 vertices
-  p.order = order;
-  if (elastic) {
-    p.fixed.push_back({{kXLow}, {true, true, true}});
-    p.forces.push_back({{kXHigh}, {0, 0, -1}});
-  } else {
-    p.elastic = false;
-    p.thermal = true;
-    p.temperatures.push_back({{kXLow}, 0.0});
-    p.heat_fluxes.push_back({{kXHigh}, 1.0});
-  }
-  return p;
-}
-
 void solve_case(benchmark::State& state, detail::SolverKind kind, bool elastic, int order, int n) {
-  const Problem p = cantilever(n, elastic, order);
+  const Problem p = bar_problem(n, elastic, order);
   double assemble = 0, solve = 0;
   Solution s;
   for (auto _ : state) {

@@ -23,22 +23,6 @@ struct Case {
   int order;
 };
 
-Problem make(int n, const Case& c) {
-  Problem p;
-  p.mesh = box_mesh(2, 1, 1, 2 * n, n, n);  // (2n+1)(n+1)^2 vertices
-  p.order = c.order;
-  if (std::string(c.physics) == "elastic") {
-    p.fixed.push_back({{kXLow}, {true, true, true}});
-    p.forces.push_back({{kXHigh}, {0, 0, -1}});
-  } else {
-    p.elastic = false;
-    p.thermal = true;
-    p.temperatures.push_back({{kXLow}, 0.0});
-    p.heat_fluxes.push_back({{kXHigh}, 1.0});
-  }
-  return p;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -66,7 +50,7 @@ int main(int argc, char** argv) {
       if (vertices < min_vertices) continue;
       // Order 2 has ~8x the nodes: stop it at a quarter of the vertex budget.
       if (c.order == 2 && vertices > max_vertices / 4) break;
-      const Problem p = make(n, c);
+      const Problem p = bar_problem(n, std::string(c.physics) == "elastic", c.order);
       for (int ki = 0; ki < 6; ++ki) {
         const detail::SolverKind kind = kinds[ki];
         if (previous[ki] > give_up) continue;  // a size up would take minutes

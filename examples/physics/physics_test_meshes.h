@@ -151,4 +151,22 @@ inline void jitter_interior(TetMesh& m, double lx, double ly, double lz, double 
   }
 }
 
+/// The solver benchmarks' case: a 2 x 1 x 1 bar of (2n+1)(n+1)^2 vertices, fixed (elastic) or
+/// held at 0 (thermal) at x = 0, loaded by a unit downward force or heat flux at x = 2.
+inline Problem bar_problem(int n, bool elastic, int order) {
+  Problem p;
+  p.mesh = box_mesh(2, 1, 1, 2 * n, n, n);
+  p.order = order;
+  if (elastic) {
+    p.fixed.push_back({{kXLow}, {true, true, true}});
+    p.forces.push_back({{kXHigh}, {0, 0, -1}});
+  } else {
+    p.elastic = false;
+    p.thermal = true;
+    p.temperatures.push_back({{kXLow}, 0.0});
+    p.heat_fluxes.push_back({{kXHigh}, 1.0});
+  }
+  return p;
+}
+
 }  // namespace cadinterp::physics::testing

@@ -17,8 +17,10 @@ using format::detail::put_f64;
 using format::detail::put_u32;
 using format::detail::put_u64;
 
-double Sample::bbox_diagonal() const {
-  if (vertices.empty()) return 0.0;
+double Sample::bbox_diagonal() const { return builder::bbox_diagonal(vertices); }
+
+double bbox_diagonal(const std::vector<double>& vertices) {
+  if (vertices.size() < 3) return 0.0;
   double lo[3], hi[3];
   for (int c = 0; c < 3; ++c) lo[c] = hi[c] = vertices[static_cast<std::size_t>(c)];
   for (std::size_t i = 0; i < vertices.size(); ++i) {

@@ -52,6 +52,9 @@ struct Sample {
   double bbox_diagonal() const;
 };
 
+/// Bounding-box diagonal of #V by 3 coordinates (0 when empty).
+double bbox_diagonal(const std::vector<double>& vertices);
+
 /// Checks what the host wrote: non-empty mesh, finite coordinates, indices in range, tets
 /// positively oriented and not degenerate (volume above 1e-12 of the bbox diagonal cubed),
 /// triangles and tags consistent, field sizes, finite field values, control point IDs unique.

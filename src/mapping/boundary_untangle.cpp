@@ -3,22 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mapping/interior_solve.h"
+
 namespace cadinterp::mapping {
 
 namespace {
-
-double six_volume_of(const std::vector<double>& x, const std::uint32_t* t) {
-  const double* p[4];
-  for (int i = 0; i < 4; ++i) p[i] = &x[3 * std::size_t(t[i])];
-  double a[3], b[3], c[3];
-  for (int k = 0; k < 3; ++k) {
-    a[k] = p[1][k] - p[0][k];
-    b[k] = p[2][k] - p[0][k];
-    c[k] = p[3][k] - p[0][k];
-  }
-  return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-         a[2] * (b[0] * c[1] - b[1] * c[0]);
-}
 
 // The objective around one vertex: (inverted count, min scaled Jacobian), lexicographic.
 struct Score {
@@ -34,7 +23,7 @@ struct Score {
 }  // namespace
 
 double scaled_jacobian(const std::vector<double>& x, const std::uint32_t* t) {
-  const double det = six_volume_of(x, t);
+  const double det = six_volume(x, t);
   double sj = 1.0;
   for (int i = 0; i < 4; ++i) {
     const double* pi = &x[3 * std::size_t(t[i])];
@@ -57,7 +46,7 @@ BoundaryUntangleResult untangle_boundary(const std::vector<std::uint32_t>& tets,
                                          const std::vector<char>* free_vertex, int rounds) {
   BoundaryUntangleResult r;
   const std::size_t T = tets.size() / 4, V = x.size() / 3;
-  auto bad = [&](std::size_t t) { return !(six_volume_of(x, &tets[4 * t]) > min_six_volume); };
+  auto bad = [&](std::size_t t) { return !(six_volume(x, &tets[4 * t]) > min_six_volume); };
   auto count_inverted = [&] {
     std::size_t n = 0;
     for (std::size_t t = 0; t < T; ++t) n += bad(t) ? 1 : 0;

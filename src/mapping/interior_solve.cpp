@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "builder/sample.h"
+
 namespace cadinterp::mapping {
 
 namespace {
@@ -146,28 +148,36 @@ bool incremental_interior(const std::vector<double>& vertices,
   return true;
 }
 
+double six_volume(const std::vector<double>& x, const std::uint32_t* t) {
+  const double* p[4];
+  for (int i = 0; i < 4; ++i) p[i] = &x[3 * std::size_t(t[i])];
+  double a[3], b[3], c[3];
+  for (int k = 0; k < 3; ++k) {
+    a[k] = p[1][k] - p[0][k];
+    b[k] = p[2][k] - p[0][k];
+    c[k] = p[3][k] - p[0][k];
+  }
+  return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+         a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+double min_six_volume(const std::vector<double>& vertices) {
+  const double diag = builder::bbox_diagonal(vertices);
+  return 1e-12 * diag * diag * diag;
+}
+
 TetQuality tet_quality(const std::vector<double>& vertices,
                        const std::vector<std::uint32_t>& tets) {
   TetQuality q;
-  const std::size_t V = vertices.size() / 3, T = tets.size() / 4;
-  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-  for (std::size_t v = 0; v < V; ++v)
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], vertices[3 * v + std::size_t(a)]);
-      hi[a] = std::max(hi[a], vertices[3 * v + std::size_t(a)]);
-    }
-  const double diag =
-      V ? std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                    (hi[2] - lo[2]) * (hi[2] - lo[2]))
-        : 0.0;
+  const std::size_t T = tets.size() / 4;
   // The rule of builder::validate: 6 V above 1e-12 diag^3.
-  const double min_six_volume = 1e-12 * diag * diag * diag;
+  const double min_six = min_six_volume(vertices);
   for (std::size_t t = 0; t < T; ++t) {
     const double* p[4];
     for (int i = 0; i < 4; ++i) p[i] = &vertices[3 * std::size_t(tets[4 * t + std::size_t(i)])];
     double g[4][3];
     const double det = hat_gradients(p, g);
-    if (!(det > min_six_volume)) ++q.inverted;
+    if (!(det > min_six)) ++q.inverted;
     for (int i = 0; i < 4; ++i) {
       double prod = 1;
       for (int j = 0; j < 4; ++j) {

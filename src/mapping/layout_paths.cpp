@@ -84,10 +84,17 @@ int vertex_at(const Surface& s, const double* p, double tolerance) {
   return best;
 }
 
-std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
-                                         std::uint32_t a, std::uint32_t b,
-                                         const std::vector<int>* patch_of, int patch,
-                                         const std::vector<char>* touch_except) {
+namespace {
+
+// Dijkstra over the half-edges of `s` (of triangles in `patch` when patch_of is given) from a to
+// the first vertex popped for which is_target holds. Vertices touched by `cuts` are blocked:
+// never passed through, entered only when they are a target, or, when touch_except is given,
+// entered (not a target, not marked in it) at 10x the cost and passed through.
+template <typename IsTarget>
+std::vector<std::uint32_t> dijkstra(const Surface& s, const std::vector<char>& cuts,
+                                    std::uint32_t a, const IsTarget& is_target,
+                                    const std::vector<int>* patch_of, int patch,
+                                    const std::vector<char>* touch_except) {
   const std::size_t V = s.sample->vertex_count();
   const int H = 3 * s.triangles();
   std::vector<char> blocked(V, 0);
@@ -103,67 +110,25 @@ std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<cha
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   dist[a] = 0;
   queue.emplace(0.0, a);
-  while (!queue.empty()) {
-    const auto [d, v] = queue.top();
-    queue.pop();
-    if (d > dist[v]) continue;
-    if (v == b) break;
-    if (v != a && blocked[v] && !touch_except) continue;
-    for (int h : out_edges[v]) {
-      if (cuts[static_cast<std::size_t>(h)]) continue;
-      const std::uint32_t w = s.to(h);
-      double cost = distance(s.position(v), s.position(w));
-      if (blocked[w] && w != b) {
-        if (!touch_except || (*touch_except)[w]) continue;
-        cost *= 10;
-      }
-      const double nd = d + cost;
-      if (nd < dist[w]) {
-        dist[w] = nd;
-        prev[w] = v;
-        queue.emplace(nd, w);
-      }
-    }
-  }
-  if (!std::isfinite(dist[b])) return {};
-  std::vector<std::uint32_t> chain{b};
-  while (chain.back() != a) chain.push_back(static_cast<std::uint32_t>(prev[chain.back()]));
-  std::reverse(chain.begin(), chain.end());
-  return chain;
-}
-
-std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vector<char>& cuts,
-                                                std::uint32_t a, const std::vector<char>& targets,
-                                                const std::vector<int>& patch_of, int patch) {
-  const std::size_t V = s.sample->vertex_count();
-  const int H = 3 * s.triangles();
-  std::vector<char> blocked(V, 0);
-  for (int h = 0; h < H; ++h)
-    if (cuts[static_cast<std::size_t>(h)]) blocked[s.from(h)] = blocked[s.to(h)] = 1;
-  std::vector<std::vector<int>> out_edges(V);
-  for (int h = 0; h < H; ++h)
-    if (patch_of[static_cast<std::size_t>(h / 3)] == patch) out_edges[s.from(h)].push_back(h);
-  std::vector<double> dist(V, std::numeric_limits<double>::infinity());
-  std::vector<std::int64_t> prev(V, -1);
-  using Item = std::pair<double, std::uint32_t>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-  dist[a] = 0;
-  queue.emplace(0.0, a);
   std::int64_t found = -1;
   while (!queue.empty()) {
     const auto [d, v] = queue.top();
     queue.pop();
     if (d > dist[v]) continue;
-    if (v != a && targets[v]) {
+    if (is_target(v)) {
       found = v;
       break;
     }
-    if (v != a && blocked[v]) continue;
+    if (v != a && blocked[v] && !touch_except) continue;
     for (int h : out_edges[v]) {
       if (cuts[static_cast<std::size_t>(h)]) continue;
       const std::uint32_t w = s.to(h);
-      if (blocked[w] && !targets[w]) continue;
-      const double nd = d + distance(s.position(v), s.position(w));
+      double cost = distance(s.position(v), s.position(w));
+      if (blocked[w] && !is_target(w)) {
+        if (!touch_except || (*touch_except)[w]) continue;
+        cost *= 10;
+      }
+      const double nd = d + cost;
       if (nd < dist[w]) {
         dist[w] = nd;
         prev[w] = v;
@@ -176,6 +141,24 @@ std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vec
   while (chain.back() != a) chain.push_back(static_cast<std::uint32_t>(prev[chain.back()]));
   std::reverse(chain.begin(), chain.end());
   return chain;
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<char>& cuts,
+                                         std::uint32_t a, std::uint32_t b,
+                                         const std::vector<int>* patch_of, int patch,
+                                         const std::vector<char>* touch_except) {
+  return dijkstra(
+      s, cuts, a, [b](std::uint32_t v) { return v == b; }, patch_of, patch, touch_except);
+}
+
+std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vector<char>& cuts,
+                                                std::uint32_t a, const std::vector<char>& targets,
+                                                const std::vector<int>& patch_of, int patch) {
+  return dijkstra(
+      s, cuts, a, [a, &targets](std::uint32_t v) { return v != a && targets[v]; }, &patch_of, patch,
+      nullptr);
 }
 
 void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts) {

@@ -193,20 +193,6 @@ void relax_in_patch(const builder::Sample& source, const builder::Sample& canoni
   }
 }
 
-// 6 x the signed volume of tet t with positions x.
-double six_volume(const std::vector<double>& x, const std::uint32_t* t) {
-  const double* p[4];
-  for (int i = 0; i < 4; ++i) p[i] = &x[3 * std::size_t(t[i])];
-  double a[3], b[3], c[3];
-  for (int k = 0; k < 3; ++k) {
-    a[k] = p[1][k] - p[0][k];
-    b[k] = p[2][k] - p[0][k];
-    c[k] = p[3][k] - p[0][k];
-  }
-  return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-         a[2] * (b[0] * c[1] - b[1] * c[0]);
-}
-
 // Local untangling after the harmonic interior (§6.4): a large shape change can leave a few
 // slivers of a host's mesh inverted (measured on the OpenCASCADE wrench: 1 or 2 of ~13000 tets
 // over random pairs across the whole box). Each interior vertex of an inverted tet is moved to
@@ -1007,14 +993,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     q = tet_quality(out.vertices, canonical.tets);
     if (q.inverted > 0) {
       // The same volume threshold as tet_quality (builder::validate's rule), on the mapped mesh.
-      double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-      for (std::size_t v = 0; v < V; ++v)
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = std::min(lo[a], out.vertices[3 * v + std::size_t(a)]);
-          hi[a] = std::max(hi[a], out.vertices[3 * v + std::size_t(a)]);
-        }
-      const double diag = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-      untangle(canonical.tets, on_surface, 1e-12 * diag * diag * diag, out.vertices);
+      untangle(canonical.tets, on_surface, min_six_volume(out.vertices), out.vertices);
       q = tet_quality(out.vertices, canonical.tets);
     }
     return true;
@@ -1064,15 +1043,8 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     std::vector<BoundaryDof> best_dofs = dofs;
     TetQuality best_q = q;
     for (int pass = 0; pass < options.boundary_untangle_passes && best_q.inverted > 0; ++pass) {
-      double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-      for (std::size_t v = 0; v < V; ++v)
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = std::min(lo[a], out.vertices[3 * v + std::size_t(a)]);
-          hi[a] = std::max(hi[a], out.vertices[3 * v + std::size_t(a)]);
-        }
-      const double diag = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
       const BoundaryUntangleResult r =
-          untangle_boundary(canonical.tets, dof_of, dofs, place, 1e-12 * diag * diag * diag,
+          untangle_boundary(canonical.tets, dof_of, dofs, place, min_six_volume(out.vertices),
                             out.vertices, &free_vertex);
       q = tet_quality(out.vertices, canonical.tets);
       if (q.inverted < best_q.inverted) {

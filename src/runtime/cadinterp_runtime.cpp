@@ -542,11 +542,34 @@ void blend_rows(cadinterp_workspace* ws, const double* weight, std::size_t offse
     blend_rows_c<0>(a, w, terms, ids, n, c, out);
 }
 
-// The first id of ids[0, n) that is >= limit, or n when all are below it.
-std::size_t first_out_of_range(const std::uint32_t* ids, std::size_t n, std::size_t limit) {
+// CADINTERP_OK when every id of ids[0, n) is below `limit` (the element's #V or #T), else
+// CADINTERP_E_OUT_OF_RANGE naming the first that is not.
+cadinterp_status check_ids(cadinterp_workspace* ws, const std::uint32_t* ids, std::size_t n,
+                           std::size_t limit, const char* array, const char* what, int element) {
   for (std::size_t i = 0; i < n; ++i)
-    if (ids[i] >= limit) return i;
-  return n;
+    if (ids[i] >= limit)
+      return fail(ws, CADINTERP_E_OUT_OF_RANGE,
+                  std::string(array) + "[" + std::to_string(i) + "] = " + std::to_string(ids[i]) +
+                      " is not a " + what + " of element " + std::to_string(element) + " (it has " +
+                      std::to_string(limit) + ")");
+  return CADINTERP_OK;
+}
+
+// Points `out` at the workspace's evaluated mesh (positions and field rows already blended into
+// ws->positions and ws->field_ptrs) and the current element's topology.
+void publish_mesh(cadinterp_workspace* ws, int element, cadinterp_mesh* out) {
+  const DecodedElement& d = ws->element->mesh;
+  const Topology& topo = *d.topology;
+  out->element = element;
+  out->vertex_count = d.vertex_count;
+  out->tet_count = static_cast<std::uint32_t>(topo.tets.size() / 4);
+  out->triangle_count = static_cast<std::uint32_t>(topo.triangles.size() / 3);
+  out->tets = topo.tets.data();
+  out->triangles = topo.triangles.data();
+  out->triangle_tags = topo.triangle_tags.data();
+  out->positions = ws->positions.data();
+  out->fields = ws->field_ptrs.data();
+  ws->error.clear();
 }
 
 }  // namespace
@@ -756,16 +779,7 @@ cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x, const 
       if (!finite_floats(dst.data(), n)) return overflow(ws);
       ws->field_ptrs[static_cast<std::size_t>(i)] = dst.data();
     }
-    out->element = w.element;
-    out->vertex_count = d.vertex_count;
-    out->tet_count = static_cast<std::uint32_t>(nt);
-    out->triangle_count = static_cast<std::uint32_t>(topo.triangles.size() / 3);
-    out->tets = topo.tets.data();
-    out->triangles = topo.triangles.data();
-    out->triangle_tags = topo.triangle_tags.data();
-    out->positions = ws->positions.data();
-    out->fields = ws->field_ptrs.data();
-    ws->error.clear();
+    publish_mesh(ws, w.element, out);
     return CADINTERP_OK;
   })
 }
@@ -788,18 +802,11 @@ cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
     const Topology& topo = *d.topology;
     const std::size_t nv = d.vertex_count, nt = topo.tets.size() / 4;
     // Ids are checked before any output is written: `out` stays untouched on failure.
-    const std::size_t bad_v = first_out_of_range(vertices, vertex_subset_count, nv);
-    if (bad_v < vertex_subset_count)
-      return fail(ws, CADINTERP_E_OUT_OF_RANGE,
-                  "vertices[" + std::to_string(bad_v) + "] = " + std::to_string(vertices[bad_v]) +
-                      " is not a vertex of element " + std::to_string(w.element) + " (it has " +
-                      std::to_string(nv) + ")");
-    const std::size_t bad_t = first_out_of_range(tets, tet_subset_count, nt);
-    if (bad_t < tet_subset_count)
-      return fail(ws, CADINTERP_E_OUT_OF_RANGE,
-                  "tets[" + std::to_string(bad_t) + "] = " + std::to_string(tets[bad_t]) +
-                      " is not a tet of element " + std::to_string(w.element) + " (it has " +
-                      std::to_string(nt) + ")");
+    cadinterp_status ids_ok =
+        check_ids(ws, vertices, vertex_subset_count, nv, "vertices", "vertex", w.element);
+    if (ids_ok == CADINTERP_OK)
+      ids_ok = check_ids(ws, tets, tet_subset_count, nt, "tets", "tet", w.element);
+    if (ids_ok != CADINTERP_OK) return ids_ok;
     ws->positions.resize(vertex_subset_count * 3);
     blend_rows(ws, w.psi, 0, vertices, vertex_subset_count, 3, true, ws->positions.data());
     if (!positions_blend_bounded(*ws->element, ws->weights.data(), w.count) &&
@@ -820,16 +827,7 @@ cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
       if (!finite_floats(dst.data(), dst.size())) return overflow(ws);
       ws->field_ptrs[static_cast<std::size_t>(i)] = dst.data();
     }
-    out->element = w.element;
-    out->vertex_count = d.vertex_count;
-    out->tet_count = static_cast<std::uint32_t>(nt);
-    out->triangle_count = static_cast<std::uint32_t>(topo.triangles.size() / 3);
-    out->tets = topo.tets.data();
-    out->triangles = topo.triangles.data();
-    out->triangle_tags = topo.triangle_tags.data();
-    out->positions = ws->positions.data();
-    out->fields = ws->field_ptrs.data();
-    ws->error.clear();
+    publish_mesh(ws, w.element, out);
     return CADINTERP_OK;
   })
 }

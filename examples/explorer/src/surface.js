@@ -242,12 +242,7 @@ export class Surface {
    */
   vertexValues(values, location, components, out) {
     const n = this.surfaceVertexCount, ids = this.surfaceVertices;
-    const mag = (base) => {
-      if (components === 1) return values[base];
-      let s = 0;
-      for (let c = 0; c < components; ++c) s += values[base + c] * values[base + c];
-      return Math.sqrt(s);
-    };
+    const mag = (base) => magnitude(values, base, components);
     if (location === 'vertex') {
       for (let i = 0; i < n; ++i) out[i] = mag(components * ids[i]);
       return;
@@ -310,12 +305,7 @@ export class Surface {
    */
   surfaceValues(values, location, components, out) {
     const n = this.surfaceVertexCount;
-    const mag = (base) => {
-      if (components === 1) return values[base];
-      let s = 0;
-      for (let c = 0; c < components; ++c) s += values[base + c] * values[base + c];
-      return Math.sqrt(s);
-    };
+    const mag = (base) => magnitude(values, base, components);
     if (location === 'vertex') {
       for (let i = 0; i < n; ++i) out[i] = mag(components * i);
       return;
@@ -381,6 +371,14 @@ export class Surface {
   }
 }
 
+/** The value at `base` of a field of `components` per row: itself, or the row's magnitude. */
+function magnitude(values, base, components) {
+  if (components === 1) return values[base];
+  let s = 0;
+  for (let c = 0; c < components; ++c) s += values[base + c] * values[base + c];
+  return Math.sqrt(s);
+}
+
 /** Largest value (largest magnitude for vector fields) of a raw field array. */
 export function fieldMax(values, components) {
   let m = -Infinity;
@@ -412,13 +410,7 @@ export function fieldRange(values, components) {
     return [lo, hi];
   }
   for (let i = 0; i < values.length; i += components) {
-    let v;
-    if (components === 1) v = values[i];
-    else {
-      let s = 0;
-      for (let c = 0; c < components; ++c) s += values[i + c] * values[i + c];
-      v = Math.sqrt(s);
-    }
+    const v = magnitude(values, i, components);
     if (v < lo) lo = v;
     if (v > hi) hi = v;
   }

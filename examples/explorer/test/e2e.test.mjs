@@ -10,7 +10,7 @@ import { mkdirSync } from 'node:fs';
 import { join } from 'node:path';
 import { after, before, describe, it } from 'node:test';
 import {
-  WORK, buildAsset, cli, dragSlider, launchBrowser, nativeEval, nativeFeasible, openPage, startServer,
+  WORK, buildAsset, cli, dragSlider, nativeEval, nativeFeasible, openExplorer,
 } from './harness.mjs';
 
 const SHOTS = process.env.EXPLORER_SCREENSHOT_DIR || join(WORK, 'screenshots');
@@ -84,19 +84,17 @@ async function compareWithNative(page, asset, opts = {}) {
 }
 
 describe('explorer on the analytic bracket (with an infeasible corner)', () => {
-  let asset, server, browser, page, problems, params;
+  let asset, explorer, page, problems, params;
 
   before(async () => {
     asset = buildAsset('bracket_fail', 'bracket', 'cells=4,fail_region=1', ['--max-samples', '150']);
     params = JSON.parse(cli(['inspect', asset, '--json']).stdout).parameters;
-    server = await startServer(asset);
-    browser = await launchBrowser();
-    ({ page, problems } = await openPage(browser.context, server.url));
+    explorer = await openExplorer(asset);
+    ({ page, problems } = explorer);
   });
 
   after(async () => {
-    await browser?.close();
-    if (server) assert.equal(await server.stop(), 0, 'cadinterp explore should exit 0 on SIGINT');
+    if (explorer) assert.equal(await explorer.close(), 0, 'cadinterp explore should exit 0 on SIGINT');
   });
 
   it('shows one slider per parameter with the asset\'s names, units and ranges, and every field', async () => {
@@ -267,7 +265,7 @@ describe('explorer on the analytic bracket (with an infeasible corner)', () => {
 });
 
 describe('explorer on the analytic plate (a vector field; mesh resolution that follows size)', () => {
-  let asset, varying, server, browser, page, problems;
+  let asset, varying, explorer, page, problems;
 
   before(async () => {
     // Plate cells are round(size / edge): with edge = 100 mm one cell everywhere (fixed
@@ -281,14 +279,12 @@ describe('explorer on the analytic plate (a vector field; mesh resolution that f
       asset = buildAsset('plate', 'plate', 'edge=100', ['--max-samples', '60']);
       varying = false;
     }
-    server = await startServer(asset);
-    browser = await launchBrowser();
-    ({ page, problems } = await openPage(browser.context, server.url));
+    explorer = await openExplorer(asset);
+    ({ page, problems } = explorer);
   });
 
   after(async () => {
-    await browser?.close();
-    if (server) assert.equal(await server.stop(), 0);
+    if (explorer) assert.equal(await explorer.close(), 0);
   });
 
   it('follows the length slider and matches native (topology changes when the build has a mapper)', async (t) => {

@@ -105,6 +105,28 @@ export async function openPage(context, url) {
   return { page, problems };
 }
 
+/**
+ * `cadinterp explore ASSET` with the page open on it in a fresh headless Chromium. close() shuts
+ * the browser and the server and returns the server's exit status (0 on SIGINT).
+ */
+export async function openExplorer(asset, extraArgs = []) {
+  const server = await startServer(asset, extraArgs);
+  let browser;
+  try {
+    browser = await launchBrowser();
+    const { page, problems } = await openPage(browser.context, server.url);
+    const close = async () => {
+      await browser.close();
+      return server.stop();
+    };
+    return { server, browser, page, problems, close };
+  } catch (e) {
+    await browser?.close();
+    await server.stop();
+    throw e;
+  }
+}
+
 /** Numbers of a named ASCII VTU DataArray. */
 function vtuArray(text, name) {
   const re = new RegExp(`<DataArray[^>]*Name="${name}"[^>]*>([^<]*)</DataArray>`);

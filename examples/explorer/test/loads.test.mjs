@@ -12,7 +12,7 @@ import { existsSync, mkdirSync } from 'node:fs';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { after, before, describe, it } from 'node:test';
-import { WORK, cli, dragSlider, launchBrowser, nativeEval, openPage, startServer } from './harness.mjs';
+import { WORK, cli, dragSlider, nativeEval, openExplorer, openPage, startServer } from './harness.mjs';
 
 const SHOTS = process.env.EXPLORER_SCREENSHOT_DIR || join(WORK, 'screenshots');
 mkdirSync(SHOTS, { recursive: true });
@@ -44,7 +44,7 @@ async function evaluated(page) {
 }
 
 describe('explorer on the OCCT wrench with a varying load angle (arrows follow the load)', { skip: haveOcct ? false : 'EXPLORER_OCCT_HOST not set (a build without the OCCT host)' }, () => {
-  let asset, server, browser, page, problems;
+  let asset, explorer, page, problems;
 
   before(async () => {
     asset = join(WORK, 'wrench_load_angle.cadi');
@@ -53,14 +53,12 @@ describe('explorer on the OCCT wrench with a varying load angle (arrows follow t
       cli(['build', '--host', OCCT_HOST, '--model', 'wrench', '--host-options', 'mesh_size=8,vary=load_angle',
         '--max-samples', '5', '--threads', '2', '-q', '-o', asset]);
     }
-    server = await startServer(asset);
-    browser = await launchBrowser();
-    ({ page, problems } = await openPage(browser.context, server.url));
+    explorer = await openExplorer(asset);
+    ({ page, problems } = explorer);
   });
 
   after(async () => {
-    await browser?.close();
-    if (server) assert.equal(await server.stop(), 0);
+    if (explorer) assert.equal(await explorer.close(), 0);
   });
 
   it('has a traction field in MPa-consistent units and one force region', async () => {
@@ -150,17 +148,15 @@ describe('explorer on the OCCT wrench with a varying load angle (arrows follow t
 
 describe('explorer field units on a format 1.1 asset (conformance k1_units)', () => {
   const asset = join(REPO, 'conformance/cases/valid/k1_units/asset.cadi');
-  let server, browser, page, problems;
+  let explorer, page, problems;
 
   before(async () => {
-    server = await startServer(asset);
-    browser = await launchBrowser();
-    ({ page, problems } = await openPage(browser.context, server.url));
+    explorer = await openExplorer(asset);
+    ({ page, problems } = explorer);
   });
 
   after(async () => {
-    await browser?.close();
-    if (server) assert.equal(await server.stop(), 0);
+    if (explorer) assert.equal(await explorer.close(), 0);
   });
 
   it('shows each field\'s unit in the legend, the selector and the readouts', async () => {
@@ -188,7 +184,7 @@ describe('explorer field units on a format 1.1 asset (conformance k1_units)', ()
     const old = join(REPO, 'conformance/cases/valid/k1_linear/asset.cadi');
     const s2 = await startServer(old);
     try {
-      const { page: p2, problems: pr2 } = await openPage(browser.context, s2.url);
+      const { page: p2, problems: pr2 } = await openPage(explorer.browser.context, s2.url);
       const st = await p2.evaluate(() => window.__explorer.setField('temperature'));
       assert.equal(st.legendTitle, 'temperature (no unit in the asset)');
       assert.deepEqual(pr2, []);
