@@ -32,6 +32,7 @@
 #include "builder/host_call.h"
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
+#include "mapping/boundary_untangle.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
@@ -393,6 +394,84 @@ int sweep(const std::vector<std::string>& args) {
   return 0;
 }
 
+// The host's own meshes: the tets no mapping can keep valid are the flat ones whose four
+// vertices all lie on the boundary (the surface map moves each face on its own, and only
+// interior vertices are free to follow), so they are counted apart.
+int meshes(const std::vector<std::string>& args) {
+  std::string model = "plate", options, library;
+  int count = 10, seed = 1;
+  double flat = 0.05;
+  cli::ArgParser p("cadinterp-mapping-report meshes", "",
+                   "Evaluates a model at random points and prints its meshes' quality: the "
+                   "smallest scaled Jacobian, and the tets below --flat, all of them and those "
+                   "with all four vertices on the boundary.");
+  p.option("model", 'm', "NAME", "model (analytic: plate, bracket, ...; or of --host)", &model);
+  p.option("options", 'o', "K=V,...", "the model's options", &options);
+  p.option("points", 'n', "N", "random points", &count, 1, 100000);
+  p.option("seed", 's', "N", "random seed", &seed, 0, 1 << 30);
+  p.option("flat", 0, "SJ", "scaled Jacobian below which a tet counts as flat", &flat, 0.0, 1.0);
+  p.option("host", 0, "LIB.so", "a host library instead of the analytic host", &library);
+  if (!p.parse(args)) return 0;
+  const cadinterp_host* h =
+      library.empty() ? open_host(model, options) : open_library_host(library, model, options);
+  const builder::Host host(*h);
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  std::printf("%6s %7s %8s %8s %10s %7s %7s\n", "V", "T", "min_sj", "flat", "flat_bdry", "F",
+              "F<15deg");
+  std::size_t total_flat = 0, total_bdry = 0, total_tets = 0;
+  for (int i = 0; i < count; ++i) {
+    std::vector<double> x(static_cast<std::size_t>(host.dim()));
+    for (std::size_t d = 0; d < x.size(); ++d)
+      x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
+    const builder::Sample s = host.evaluate(x.data());
+    if (!s.feasible) {
+      std::printf("infeasible: %s\n", s.message.c_str());
+      continue;
+    }
+    std::vector<char> on_boundary(s.vertex_count(), 0);
+    for (std::uint32_t v : s.triangles) on_boundary[v] = 1;
+    double min_sj = 1;
+    std::size_t nflat = 0, nbdry = 0;
+    for (std::size_t t = 0; t < s.tets.size(); t += 4) {
+      const double sj = mapping::scaled_jacobian(s.vertices, &s.tets[t]);
+      min_sj = std::min(min_sj, sj);
+      if (sj >= flat) continue;
+      ++nflat;
+      bool all = true;
+      for (int k = 0; k < 4; ++k) all = all && on_boundary[s.tets[t + std::size_t(k)]];
+      nbdry += all ? 1 : 0;
+    }
+    // Boundary triangles with an angle under 15 degrees: a tet on such a face is flat at that
+    // corner whatever its fourth vertex.
+    std::size_t skinny = 0;
+    for (std::size_t f = 0; f < s.triangles.size(); f += 3) {
+      double m = 180;
+      for (int k = 0; k < 3; ++k) {
+        const double* a = &s.vertices[3 * std::size_t(s.triangles[f + std::size_t(k)])];
+        const double* b = &s.vertices[3 * std::size_t(s.triangles[f + std::size_t((k + 1) % 3)])];
+        const double* c = &s.vertices[3 * std::size_t(s.triangles[f + std::size_t((k + 2) % 3)])];
+        double u[3], w[3];
+        for (int d = 0; d < 3; ++d) u[d] = b[d] - a[d], w[d] = c[d] - a[d];
+        const double dot = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
+        const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
+                     cz = u[0] * w[1] - u[1] * w[0];
+        m = std::min(m, std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot) * 180 / M_PI);
+      }
+      skinny += m < 15 ? 1 : 0;
+    }
+    std::printf("%6zu %7zu %8.4f %8zu %10zu %7zu %7zu\n", s.vertex_count(), s.tets.size() / 4,
+                min_sj, nflat, nbdry, s.triangles.size() / 3, skinny);
+    total_flat += nflat;
+    total_bdry += nbdry;
+    total_tets += s.tets.size() / 4;
+  }
+  std::printf(
+      "summary: %zu of %zu tets below scaled Jacobian %.3g, %zu of them with all four "
+      "vertices on the boundary\n",
+      total_flat, total_tets, flat, total_bdry);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -402,11 +481,13 @@ int main(int argc, char** argv) {
     if (command == "pairs") return pairs(args);
     if (command == "sweep") return sweep(args);
     if (command == "cubic") return cubic(args);
+    if (command == "meshes") return meshes(args);
     std::printf(
-        "usage: cadinterp-mapping-report pairs|cubic|sweep [options] (--help for each)\n"
+        "usage: cadinterp-mapping-report pairs|cubic|sweep|meshes [options] (--help for each)\n"
         "  pairs  quality table of the mesh mapper over random sample pairs\n"
         "  cubic  cubic builds: direct vs shared-sample neighbour transfer (§5.3)\n"
-        "  sweep  VTU sequence of a built asset sweeping one parameter\n");
+        "  sweep  VTU sequence of a built asset sweeping one parameter\n"
+        "  meshes quality of a model's own meshes (flat tets, on the boundary or not)\n");
     return command.empty() || command == "--help" ? 0 : 2;
   } catch (const cli::UsageError& e) {
     std::fprintf(stderr, "cadinterp-mapping-report: %s\n", e.what());

@@ -134,12 +134,15 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
       m.mesh.quality = parse_number(key, value, 1.05, 10);
     else if (key == "angle")
       m.mesh.angle = parse_number(key, value, 0.05, 1.5);
+    else if (key == "min_angle")
+      m.mesh.min_angle = parse_number(key, value, 0, 30);
     else if (key == "vary")
       vary = value;
     else
       throw std::invalid_argument(
           "occt host: unknown option '" + key +
-          "' (mesh_size, order, levels, keep_surface, quality, angle, force, heat_flux, vary)");
+          "' (mesh_size, order, levels, keep_surface, quality, angle, min_angle, force, heat_flux, "
+          "vary)");
     if ((key == "order" || key == "levels" || key == "keep_surface") &&
         value.find_first_not_of("0123456789") != std::string::npos)
       throw std::invalid_argument("occt host: option " + key + " must be an integer");
@@ -167,7 +170,7 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
                ", levels=" + std::to_string(m.levels) +
                ", keep_surface=" + (m.mesh.keep_surface ? "1" : "0") +
                ", quality=" + g(m.mesh.quality) + ", angle=" + g(m.mesh.angle) +
-               ", force=" + g(m.settings.force) +
+               ", min_angle=" + g(m.mesh.min_angle) + ", force=" + g(m.settings.force) +
                (m.def->name == "hub" ? ", heat_flux=" + g(m.settings.heat_flux) : "") +
                (names.empty() ? std::string() : ", vary=" + vary) + ")" +
                // The fields changed (traction added, units set): stores of before are refused.

@@ -23,7 +23,11 @@ struct MeshSettings {
   /// TetGen splits them itself, which can leave sliver tets on curved faces.
   bool keep_surface = true;
   double quality = 1.414;  ///< TetGen -q: largest radius-edge ratio of a tet
-  double angle = 0.3;      ///< BRepMesh angular deflection (radians per segment)
+  /// With keep_surface: the surface is improved (in-face flips, smoothing on the B-rep surfaces,
+  /// bisection) until its triangles' angles reach this (degrees) or their edges h/4; 0: the
+  /// bisected BRepMesh triangles as they are.
+  double min_angle = 20;
+  double angle = 0.3;  ///< BRepMesh angular deflection (radians per segment)
 };
 
 struct MeshTimes {
