@@ -137,6 +137,39 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
                       m.triangle_tags[static_cast<std::size_t>(t / 3)])
       inner.emplace(std::min(s.from(h), s.to(h)), std::max(s.from(h), s.to(h)));
   }
+  std::vector<std::vector<std::uint32_t>> inner_next(inner.empty() ? 0 : m.vertex_count());
+  for (const Edge& e : inner) {
+    inner_next[e.first].push_back(e.second);
+    inner_next[e.second].push_back(e.first);
+  }
+  // The mesh edges of the polyline segment u -> v: the edge itself, or a chain of inner edges
+  // through vertices on the segment, each nearer v (a host may split a segment after emitting
+  // the path: the OpenCASCADE host bisects long or skinny surface triangles, seams included).
+  auto segment_edges = [&](std::uint32_t u, std::uint32_t v, std::vector<Edge>& out) {
+    const double* b = &m.vertices[3 * std::size_t(v)];
+    auto to_v = [&](std::uint32_t w) {
+      const double* p = &m.vertices[3 * std::size_t(w)];
+      return std::hypot(p[0] - b[0], p[1] - b[1], p[2] - b[2]);
+    };
+    const double* a = &m.vertices[3 * std::size_t(u)];
+    for (std::uint32_t cur = u, steps = 0; cur != v; ++steps) {
+      if (steps > 256) return false;
+      std::uint32_t next = UINT32_MAX;
+      for (std::uint32_t w : inner_next[cur]) {
+        double t;
+        if (w == v ||
+            (to_v(w) < to_v(cur) &&
+             point_segment_distance(&m.vertices[3 * std::size_t(w)], a, b, t) <= tolerance)) {
+          next = w;
+          if (w == v) break;
+        }
+      }
+      if (next == UINT32_MAX) return false;
+      out.emplace_back(std::min(cur, next), std::max(cur, next));
+      cur = next;
+    }
+    return true;
+  };
   std::set<Edge> seam;
   for (std::size_t q = 0; q < m.paths.size() && !inner.empty(); ++q) {
     if (!common_edges.count(keys[q])) continue;
@@ -146,12 +179,10 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     std::int64_t prev = -1;
     for (std::size_t i = 0; i + 2 < pl.size() && whole; i += 3) {
       const std::int64_t v = vertex_near(&pl[i]);
-      if (i > 0) {
-        const Edge e{static_cast<std::uint32_t>(std::min(v, prev)),
-                     static_cast<std::uint32_t>(std::max(v, prev))};
-        whole = v >= 0 && prev >= 0 && v != prev && inner.count(e);
-        mine.push_back(e);
-      }
+      if (i > 0)
+        whole =
+            v >= 0 && prev >= 0 && v != prev &&
+            segment_edges(static_cast<std::uint32_t>(prev), static_cast<std::uint32_t>(v), mine);
       prev = v;
     }
     if (whole) seam.insert(mine.begin(), mine.end());

@@ -695,6 +695,57 @@ TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
   for (int c : sector) EXPECT_GT(c, 0);
 }
 
+// A host may split a path's segments after emitting it (the OpenCASCADE host bisects long or
+// skinny surface triangles, seams included): a seam whose polyline skips every other mesh
+// vertex along it (the skipped ones lie on its segments) still cuts its wall open, and the
+// mapping still succeeds.
+TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
+  const tube::Shape shape{1.0, 2.0, 3.0, 16, 8};
+  builder::Sample source = tube::make(shape);
+  std::size_t thinned = 0;
+  for (builder::Path& p : source.paths) {
+    // Seam paths only: a seam's polyline runs straight along z (the circles do not).
+    const std::vector<double>& pl = p.polyline;
+    bool straight = true;
+    for (std::size_t i = 3; i < pl.size(); i += 3)
+      straight = straight && pl[i] == pl[0] && pl[i + 1] == pl[1];
+    if (!straight || pl.size() < 9) continue;
+    std::vector<double> every_other;
+    for (std::size_t i = 0; i < pl.size(); i += 6)
+      every_other.insert(every_other.end(), pl.begin() + long(i), pl.begin() + long(i) + 3);
+    if (every_other.size() / 3 != (pl.size() / 3 + 1) / 2 ||
+        !std::equal(pl.end() - 3, pl.end(), every_other.end() - 3))
+      continue;  // keep the end point: only paths of an odd node count thin exactly
+    p.polyline = every_other;
+    ++thinned;
+  }
+  ASSERT_GT(thinned, 0u);
+  ASSERT_EQ(builder::validate(source), "");
+  mapping::Surface surf;
+  std::string why;
+  ASSERT_TRUE(mapping::build_surface(source, surf, why)) << why;
+  const mapping::Correspondence corr = mapping::correspond(source, source);
+  const std::vector<char> cuts =
+      mapping::layout_cuts(surf, corr.common_edges, 1e-9 * source.bbox_diagonal());
+  std::vector<const double*> anchors;
+  for (const mapping::Anchor& a : corr.anchors) anchors.push_back(a.source);
+  std::vector<mapping::Patch> patches;
+  ASSERT_TRUE(mapping::build_patches(surf, cuts, anchors, 1e-9 * source.bbox_diagonal(), true,
+                                     patches, why))
+      << why;
+  std::size_t walls = 0;
+  for (const mapping::Patch& p : patches) {
+    if (source.triangle_tags[std::size_t(p.triangles[0])] > 2) continue;
+    ++walls;
+    EXPECT_TRUE(p.holes.empty());  // cut open along its seam, as with the whole polyline
+    EXPECT_EQ(p.local_vertices.size(), 16u * 9u + 9u);
+  }
+  EXPECT_EQ(walls, 2u);
+  builder::MappedSample m;
+  const builder::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
+  EXPECT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
+}
+
 // Fix 2 of the OpenCASCADE round: the interior solve in boundary increments, with the
 // current mesh's stiffness, and with small tets stiffened (MapOptions). Truth: the P1
 // Laplacian reproduces an affine boundary map exactly, in one step or many (each step's
