@@ -101,6 +101,9 @@ int pairs(const std::vector<std::string>& args) {
   p.option("options", 'o', "K=V,...", "the model's options", &options);
   p.option("pairs", 'n', "N", "random pairs", &count, 1, 100000);
   p.option("seed", 's', "N", "random seed", &seed, 0, 1 << 30);
+  int only = -1;
+  p.option("only", 0, "I", "map pair I (0-based) of the sequence only, to reproduce one", &only, 0,
+           100000);
   p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
   p.option("host", 0, "LIB.so",
            "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
@@ -155,6 +158,7 @@ int pairs(const std::vector<std::string>& args) {
   std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, infeasible = 0;
   for (int i = 0; i < count; ++i) {
     const std::vector<double> xa = random_x(), xc = random_x();
+    if (only >= 0 && i != only) continue;
     const builder::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
     if (!a.feasible || !c.feasible) {
       ++infeasible;
