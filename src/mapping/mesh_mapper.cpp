@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <tuple>
@@ -1014,12 +1015,14 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   };
   TetQuality q;
   if (!solve(q)) return false;
+  const bool folded = static_cast<double>(q.inverted) >
+                      options.untangle_max_fraction * static_cast<double>(canonical.tet_count());
   // Boundary untangling (boundary_untangle.h): tets that stay inverted after the interior solve,
   // most of them with all four vertices on the boundary (measured on the OpenCASCADE press and
   // mount), get their boundary vertices moved within the source surface, then the interior is
   // solved again for the moved boundary; repeated while it helps.
   std::size_t boundary_moved = 0;
-  if (q.inverted > 0 && options.boundary_untangle_passes > 0) {
+  if (q.inverted > 0 && !folded && options.boundary_untangle_passes > 0) {
     auto point_of = [&](const BoundaryDof& d, const double* p, SurfacePoint& pt) {
       const std::size_t pi = static_cast<std::size_t>(d.patch);
       if (d.dims == 1) {
@@ -1085,7 +1088,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->boundary_moved = boundary_moved;
     stats->smoothed = smooth != nullptr;
   }
-  if (q.inverted > 0 && options.smooth_alpha > 0) {
+  if (q.inverted > 0 && !folded && options.smooth_alpha > 0) {
     // The same mapping on the flat source triangles, kept when it succeeds: the reconstruction
     // lifts boundary vertices by up to the chordal sag, which can leave a thin tet near the
     // boundary inverted that the flat placement does not (measured on the OpenCASCADE press: 1
@@ -1102,6 +1105,11 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     }
   }
   if (q.inverted > 0) {
+    auto percent = [](double f) {
+      char b[32];
+      std::snprintf(b, sizeof b, "%g %%", 100 * f);
+      return std::string(b);
+    };
     // Tets with all four vertices on the boundary are fixed by the surface map alone: no
     // interior solve or untangling can repair them, so the message tells them apart.
     std::size_t surface_only = 0;
@@ -1115,7 +1123,11 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     }
     why = "mapping: the harmonic interior would invert or flatten " + std::to_string(q.inverted) +
           " of " + std::to_string(canonical.tet_count()) + " tets (" +
-          std::to_string(surface_only) + " of them with all four vertices on the boundary)";
+          std::to_string(surface_only) + " of them with all four vertices on the boundary" +
+          (folded ? "; over " + percent(options.untangle_max_fraction) +
+                        " of the tets: the surface map folds, no boundary untangling tried"
+                  : std::string()) +
+          ")";
     return false;
   }
   const TetLocator locator(source);
