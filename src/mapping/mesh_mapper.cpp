@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <tuple>
@@ -15,6 +16,7 @@
 #include "mapping/layout_paths.h"
 #include "mapping/mean_value_param.h"
 #include "mapping/patch_layout.h"
+#include "mapping/path_release.h"
 #include "mapping/smooth_surface.h"
 #include "mapping/surface.h"
 
@@ -1017,6 +1019,53 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   if (!solve(q)) return false;
   const bool folded = static_cast<double>(q.inverted) >
                       options.untangle_max_fraction * static_cast<double>(canonical.tet_count());
+  // Where tets stay inverted: the surface relaxed across the traced paths
+  // (release_traced_paths), kept when the interior then has no inverted tet.
+  if (q.inverted > 0 && !folded && options.release_sweeps > 0 && !can_traced.empty()) {
+    const std::vector<char> cad_cuts = cuts_of(cs, can_keys, {}, can_tol);
+    std::vector<char> on_cad(V, 0);
+    for (int h = 0; h < 3 * cs.triangles(); ++h)
+      if (cad_cuts[std::size_t(h)]) on_cad[cs.from(h)] = on_cad[cs.to(h)] = 1;
+    // Within 3 surface rings of a traced path.
+    std::vector<int> ring(V, -1);
+    std::vector<std::uint32_t> front;
+    for (const auto& chain : can_traced)
+      for (std::uint32_t v : chain)
+        if (ring[v] < 0) {
+          ring[v] = 0;
+          front.push_back(v);
+        }
+    std::vector<std::vector<std::uint32_t>> next_to(V);
+    for (int h = 0; h < 3 * cs.triangles(); ++h) next_to[cs.from(h)].push_back(cs.to(h));
+    for (int r = 1; r <= 3; ++r) {
+      std::vector<std::uint32_t> grown;
+      for (std::uint32_t v : front)
+        for (std::uint32_t u : next_to[v])
+          if (ring[u] < 0) {
+            ring[u] = r;
+            grown.push_back(u);
+          }
+      front.swap(grown);
+    }
+    std::vector<std::uint32_t> movable;
+    for (std::uint32_t v = 0; v < V; ++v)
+      if (ring[v] >= 0 && !on_cad[v] && can_anchor_of[v] < 0) movable.push_back(v);
+    std::vector<SurfacePoint> released_where = where;
+    std::vector<double> released = surface_map;
+    release_traced_paths(source, ss, canonical, movable, options.release_sweeps, released_where,
+                         place_point, released);
+    const std::vector<double> kept_map = surface_map, kept_out = out.vertices;
+    surface_map = released;
+    TetQuality q2;
+    if (!solve(q2)) return false;
+    if (q2.inverted == 0) {
+      q = q2;
+      where = std::move(released_where);
+    } else {
+      surface_map = kept_map;
+      out.vertices = kept_out;
+    }
+  }
   // Boundary untangling (boundary_untangle.h): tets that stay inverted after the interior solve,
   // most of them with all four vertices on the boundary (measured on the OpenCASCADE press and
   // mount), get their boundary vertices moved within the source surface, then the interior is

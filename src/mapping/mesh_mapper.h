@@ -49,6 +49,9 @@ struct MapOptions {
   /// measured on the OpenCASCADE hub, pairs with 4-5 % inverted kept 1.2-2.5 % after minutes of
   /// untangling, while every pair the untangling rescued (mount, press) had under 0.3 %.
   double untangle_max_fraction = 0.01;
+  /// Where tets stay inverted after the interior solve: Jacobi sweeps relaxing the surface map
+  /// across the layout's traced paths (kept only if then no tet is inverted; 0: none).
+  int release_sweeps = 20;
   /// Canonical boundary vertices are placed on the source's Phong reconstruction per B-rep face
   /// (smooth_surface.h) with this shape factor; 0 places them on the flat source triangles.
   /// 1/2 reproduces a circular arc to second order (the chord's sag), so the mapped points
