@@ -606,6 +606,21 @@ builder::Sample make(const Shape& t) {
   return s;
 }
 
+// The layout of a sample against itself (every CAD path common): its patches.
+void self_layout(const builder::Sample& s, std::vector<mapping::Patch>& patches) {
+  mapping::Surface surf;
+  std::string why;
+  ASSERT_TRUE(mapping::build_surface(s, surf, why)) << why;
+  const mapping::Correspondence corr = mapping::correspond(s, s);
+  const std::vector<char> cuts =
+      mapping::layout_cuts(surf, corr.common_edges, 1e-9 * s.bbox_diagonal());
+  std::vector<const double*> anchors;
+  for (const mapping::Anchor& a : corr.anchors) anchors.push_back(a.source);
+  ASSERT_TRUE(
+      mapping::build_patches(surf, cuts, anchors, 1e-9 * s.bbox_diagonal(), true, patches, why))
+      << why;
+}
+
 }  // namespace tube
 
 // Fix 1 of the OpenCASCADE round: the seam of a periodic face. The tube's walls are annuli
@@ -621,18 +636,8 @@ TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
   ASSERT_EQ(builder::validate(canonical), "");
 
   // The layout: the outer wall (tag 1) is one disk patch cut open along its seam.
-  mapping::Surface surf;
-  std::string why;
-  ASSERT_TRUE(mapping::build_surface(source, surf, why)) << why;
-  const mapping::Correspondence corr = mapping::correspond(source, source);
-  const std::vector<char> cuts =
-      mapping::layout_cuts(surf, corr.common_edges, 1e-9 * source.bbox_diagonal());
-  std::vector<const double*> anchors;
-  for (const mapping::Anchor& a : corr.anchors) anchors.push_back(a.source);
   std::vector<mapping::Patch> patches;
-  ASSERT_TRUE(mapping::build_patches(surf, cuts, anchors, 1e-9 * source.bbox_diagonal(), true,
-                                     patches, why))
-      << why;
+  ASSERT_NO_FATAL_FAILURE(tube::self_layout(source, patches));
   ASSERT_EQ(patches.size(), 4u);
   for (const mapping::Patch& p : patches) {
     // The caps are plain annuli (two loops, no seam: the mapper splits them by paths).
@@ -648,6 +653,7 @@ TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
 
   builder::MappedSample m;
   mapping::MapStats stats;
+  std::string why;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
   EXPECT_EQ(stats.patches, 6u);  // two walls, two caps split in two each
   EXPECT_EQ(stats.inverted, 0u);
@@ -722,18 +728,8 @@ TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
   }
   ASSERT_GT(thinned, 0u);
   ASSERT_EQ(builder::validate(source), "");
-  mapping::Surface surf;
-  std::string why;
-  ASSERT_TRUE(mapping::build_surface(source, surf, why)) << why;
-  const mapping::Correspondence corr = mapping::correspond(source, source);
-  const std::vector<char> cuts =
-      mapping::layout_cuts(surf, corr.common_edges, 1e-9 * source.bbox_diagonal());
-  std::vector<const double*> anchors;
-  for (const mapping::Anchor& a : corr.anchors) anchors.push_back(a.source);
   std::vector<mapping::Patch> patches;
-  ASSERT_TRUE(mapping::build_patches(surf, cuts, anchors, 1e-9 * source.bbox_diagonal(), true,
-                                     patches, why))
-      << why;
+  ASSERT_NO_FATAL_FAILURE(tube::self_layout(source, patches));
   std::size_t walls = 0;
   for (const mapping::Patch& p : patches) {
     if (source.triangle_tags[std::size_t(p.triangles[0])] > 2) continue;
@@ -744,6 +740,7 @@ TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
   EXPECT_EQ(walls, 2u);
   builder::MappedSample m;
   const builder::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
+  std::string why;
   EXPECT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
 }
 

@@ -8,6 +8,24 @@
 
 namespace cadinterp::mapping {
 
+bool mean_value_corner_weights(const double* xi, const double* xj, const double* xk, double& wj,
+                               double& wk) {
+  double e1[3], e2[3];
+  for (int a = 0; a < 3; ++a) {
+    e1[a] = xj[a] - xi[a];
+    e2[a] = xk[a] - xi[a];
+  }
+  const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+  const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+  if (!(l1 > 0) || !(l2 > 0)) return false;
+  const double cosa =
+      std::clamp((e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / (l1 * l2), -1.0, 1.0);
+  const double half_tan = std::tan(0.5 * std::acos(cosa));
+  wj = half_tan / l1;
+  wk = half_tan / l2;
+  return true;
+}
+
 bool mean_value_parametrize(const Surface& s, const Patch& patch,
                             const std::vector<double>& loop_uv, DiskMap& out, std::string& why) {
   out = DiskMap{};
@@ -52,22 +70,12 @@ bool mean_value_parametrize(const Surface& s, const Patch& patch,
       const double* xi = s.position(out.vertices[static_cast<std::size_t>(i)]);
       const double* xj = s.position(out.vertices[static_cast<std::size_t>(j)]);
       const double* xk = s.position(out.vertices[static_cast<std::size_t>(k)]);
-      double e1[3], e2[3];
-      for (int a = 0; a < 3; ++a) {
-        e1[a] = xj[a] - xi[a];
-        e2[a] = xk[a] - xi[a];
-      }
-      const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-      const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
-      if (!(l1 > 0) || !(l2 > 0)) {
+      double wj, wk;
+      if (!mean_value_corner_weights(xi, xj, xk, wj, wk)) {
         why = "degenerate triangle in a patch (zero-length edge)";
         return false;
       }
-      const double cosa =
-          std::clamp((e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / (l1 * l2), -1.0, 1.0);
-      const double half_tan = std::tan(0.5 * std::acos(cosa));
-      for (const auto& [other, len] : {std::make_pair(j, l1), std::make_pair(k, l2)}) {
-        const double w = half_tan / len;
+      for (const auto& [other, w] : {std::make_pair(j, wj), std::make_pair(k, wk)}) {
         diag[static_cast<std::size_t>(ui)] += w;
         const int uo = unknown[static_cast<std::size_t>(other)];
         if (uo >= 0) {

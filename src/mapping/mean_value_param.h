@@ -21,6 +21,12 @@ struct DiskMap {
   std::vector<int> triangles;           ///< local indices, 3 per patch triangle
 };
 
+/// One triangle's share of Floater's mean-value weights at its corner xi (Floater 2003, Eq. 5.1):
+/// tan(alpha / 2) / |xj - xi| for neighbour xj and tan(alpha / 2) / |xk - xi| for xk, alpha the
+/// corner's angle. False for a zero-length edge.
+bool mean_value_corner_weights(const double* xi, const double* xj, const double* xk, double& wj,
+                               double& wk);
+
 /// `loop_uv` holds 2 values per patch.loop vertex (on the unit circle, counter-clockwise).
 /// Fails when the sparse solve fails (a degenerate patch).
 bool mean_value_parametrize(const Surface& s, const Patch& patch,

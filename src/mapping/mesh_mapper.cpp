@@ -125,19 +125,10 @@ void relax_in_patch(const builder::Sample& source, const builder::Sample& canoni
       const double* xi = &canonical.vertices[3 * std::size_t(cd.vertices[i])];
       const double* xj = &canonical.vertices[3 * std::size_t(cd.vertices[std::size_t(j)])];
       const double* xk = &canonical.vertices[3 * std::size_t(cd.vertices[std::size_t(k)])];
-      double e1[3], e2[3];
-      for (int a = 0; a < 3; ++a) {
-        e1[a] = xj[a] - xi[a];
-        e2[a] = xk[a] - xi[a];
-      }
-      const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-      const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
-      if (!(l1 > 0) || !(l2 > 0)) continue;
-      const double cosa =
-          std::clamp((e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / (l1 * l2), -1.0, 1.0);
-      const double h = std::tan(0.5 * std::acos(cosa));
-      nbr[i].emplace_back(j, h / l1);
-      nbr[i].emplace_back(k, h / l2);
+      double wj, wk;
+      if (!mean_value_corner_weights(xi, xj, xk, wj, wk)) continue;
+      nbr[i].emplace_back(j, wj);
+      nbr[i].emplace_back(k, wk);
     }
   std::vector<double> X(3 * n, 0.0);
   std::vector<int> tri(n, -1);
@@ -1020,7 +1011,14 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   const bool folded = static_cast<double>(q.inverted) >
                       options.untangle_max_fraction * static_cast<double>(canonical.tet_count());
   // Where tets stay inverted: the surface relaxed across the traced paths
-  // (release_traced_paths), kept when the interior then has no inverted tet.
+  // (release_traced_paths), kept when the interior then has fewer inverted tets.
+  struct Unreleased {
+    std::vector<double> surface_map, vertices;
+    std::vector<SurfacePoint> where;
+    std::vector<BoundaryDof> dofs;
+    TetQuality q;
+  };
+  std::unique_ptr<Unreleased> unreleased;
   if (q.inverted > 0 && !folded && options.release_sweeps > 0 && !can_traced.empty()) {
     const std::vector<char> cad_cuts = cuts_of(cs, can_keys, {}, can_tol);
     std::vector<char> on_cad(V, 0);
@@ -1061,6 +1059,16 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     if (q2.inverted == 0) {
       q = q2;
       where = std::move(released_where);
+    } else if (q2.inverted < q.inverted) {
+      // Fewer, not none: the boundary untangling below runs from here, and once more from the
+      // state before the release (kept in `unreleased`), the better result kept. The
+      // untangling's parameters of the released vertices (disk coordinates) no longer say
+      // where they are, so there it leaves them where the release put them.
+      unreleased = std::make_unique<Unreleased>(Unreleased{kept_map, kept_out, where, dofs, q});
+      q = q2;
+      where = std::move(released_where);
+      for (std::uint32_t v : movable)
+        if (dof_of[v] >= 0) dofs[static_cast<std::size_t>(dof_of[v])].dims = 0;
     } else {
       surface_map = kept_map;
       out.vertices = kept_out;
@@ -1071,7 +1079,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   // mount), get their boundary vertices moved within the source surface, then the interior is
   // solved again for the moved boundary; repeated while it helps.
   std::size_t boundary_moved = 0;
-  if (q.inverted > 0 && !folded && options.boundary_untangle_passes > 0) {
+  auto untangle_surface = [&]() {
     auto point_of = [&](const BoundaryDof& d, const double* p, SurfacePoint& pt) {
       const std::size_t pi = static_cast<std::size_t>(d.patch);
       if (d.dims == 1) {
@@ -1125,6 +1133,31 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       if (dofs[i].p[0] == initial[i].p[0] && dofs[i].p[1] == initial[i].p[1]) continue;
       point_of(dofs[i], dofs[i].p, where[dofs[i].vertex]);
       ++boundary_moved;
+    }
+    return true;
+  };
+  if (q.inverted > 0 && !folded && options.boundary_untangle_passes > 0) {
+    if (!untangle_surface()) return false;
+    if (q.inverted > 0 && unreleased) {
+      // Once more from the state before the release; the fewer inverted tets kept.
+      const std::vector<double> r_vertices = out.vertices, r_map = surface_map;
+      const std::vector<SurfacePoint> r_where = where;
+      const std::size_t r_moved = boundary_moved;
+      const TetQuality r_q = q;
+      surface_map = unreleased->surface_map;
+      out.vertices = unreleased->vertices;
+      where = unreleased->where;
+      dofs = unreleased->dofs;
+      q = unreleased->q;
+      boundary_moved = 0;
+      if (!untangle_surface()) return false;
+      if (r_q.inverted < q.inverted) {
+        out.vertices = r_vertices;
+        surface_map = r_map;
+        where = r_where;
+        boundary_moved = r_moved;
+        q = r_q;
+      }
     }
   }
   if (stats) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "mapping/mean_value_param.h"
+
 namespace cadinterp::mapping {
 
 // Ericson, Real-Time Collision Detection, 5.1.5: the Voronoi regions of the vertices, then of
@@ -70,19 +72,10 @@ void release_traced_paths(const builder::Sample& source, const Surface& ss,
       const double* xi = &canonical.vertices[3 * std::size_t(i)];
       const double* xj = &canonical.vertices[3 * std::size_t(j)];
       const double* xk = &canonical.vertices[3 * std::size_t(k)];
-      double e1[3], e2[3];
-      for (int a = 0; a < 3; ++a) {
-        e1[a] = xj[a] - xi[a];
-        e2[a] = xk[a] - xi[a];
-      }
-      const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-      const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
-      if (!(l1 > 0) || !(l2 > 0)) continue;
-      const double cosa =
-          std::clamp((e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / (l1 * l2), -1.0, 1.0);
-      const double h = std::tan(0.5 * std::acos(cosa));
-      nbr[std::size_t(slot[i])].emplace_back(j, h / l1);
-      nbr[std::size_t(slot[i])].emplace_back(k, h / l2);
+      double wj, wk;
+      if (!mean_value_corner_weights(xi, xj, xk, wj, wk)) continue;
+      nbr[std::size_t(slot[i])].emplace_back(j, wj);
+      nbr[std::size_t(slot[i])].emplace_back(k, wk);
     }
   std::vector<SurfacePoint> next(movable.size());
   std::vector<int> seen(source.triangle_count(), -1);
