@@ -7,11 +7,11 @@
 
 namespace cadinterp::builder {
 
-namespace {
-
-// Squared distance from p to triangle abc: the closest point lies in one of the seven Voronoi
-// regions of the triangle (3 vertices, 3 edges, the face), told apart by barycentric signs.
-double point_triangle_sq(const double* p, const double* a, const double* b, const double* c) {
+// The closest point lies in one of the seven Voronoi regions of the triangle (3 vertices,
+// 3 edges, the face), told apart by barycentric signs (Ericson, Real-Time Collision Detection,
+// 5.1.5).
+void closest_point_weights(const double* p, const double* a, const double* b, const double* c,
+                           double w[3]) {
   double ab[3], ac[3], ap[3];
   for (int i = 0; i < 3; ++i) {
     ab[i] = b[i] - a[i];
@@ -21,39 +21,60 @@ double point_triangle_sq(const double* p, const double* a, const double* b, cons
   auto dot = [](const double* u, const double* v) {
     return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
   };
-  auto sq_to = [&](double s, double t) {  // |a + s ab + t ac - p|^2
-    double d = 0;
-    for (int i = 0; i < 3; ++i) {
-      const double q = a[i] + s * ab[i] + t * ac[i] - p[i];
-      d += q * q;
-    }
-    return d;
+  auto at = [&](double s, double t) {  // a + s ab + t ac
+    w[0] = 1 - s - t;
+    w[1] = s;
+    w[2] = t;
   };
   const double d1 = dot(ab, ap), d2 = dot(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return sq_to(0, 0);
+  if (d1 <= 0 && d2 <= 0) return at(0, 0);
   double bp[3], cp[3];
   for (int i = 0; i < 3; ++i) {
     bp[i] = p[i] - b[i];
     cp[i] = p[i] - c[i];
   }
   const double d3 = dot(ab, bp), d4 = dot(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return sq_to(1, 0);
+  if (d3 >= 0 && d4 <= d3) return at(1, 0);
   const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return sq_to(d1 / (d1 - d3), 0);
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return at(d1 / (d1 - d3), 0);
   const double d5 = dot(ab, cp), d6 = dot(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return sq_to(0, 1);
+  if (d6 >= 0 && d5 <= d6) return at(0, 1);
   const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return sq_to(0, d2 / (d2 - d6));
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return at(0, d2 / (d2 - d6));
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return sq_to(1 - w, w);
+    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return at(1 - t, t);
   }
   const double denom = va + vb + vc;
-  if (!(denom > 0)) {  // degenerate triangle: its edges
-    return std::min({sq_to(0, 0), sq_to(1, 0), sq_to(0, 1)});
+  if (!(denom > 0)) {  // degenerate triangle: the nearest of its corners
+    double best = std::numeric_limits<double>::infinity();
+    const double* corner[3] = {a, b, c};
+    for (int k = 0; k < 3; ++k) {
+      double d = 0;
+      for (int i = 0; i < 3; ++i) d += (corner[k][i] - p[i]) * (corner[k][i] - p[i]);
+      if (d < best) {
+        best = d;
+        w[0] = w[1] = w[2] = 0;
+        w[k] = 1;
+      }
+    }
+    return;
   }
-  return sq_to(vb / denom, vc / denom);
+  at(vb / denom, vc / denom);
+}
+
+namespace {
+
+// Squared distance from p to triangle abc, at its closest point (closest_point_weights).
+double point_triangle_sq(const double* p, const double* a, const double* b, const double* c) {
+  double w[3], d = 0;
+  closest_point_weights(p, a, b, c, w);
+  for (int i = 0; i < 3; ++i) {
+    const double q = w[0] * a[i] + w[1] * b[i] + w[2] * c[i] - p[i];
+    d += q * q;
+  }
+  return d;
 }
 
 }  // namespace

@@ -8,6 +8,11 @@
 
 namespace cadinterp::builder {
 
+/// Barycentric weights (w[0] + w[1] + w[2] = 1, all >= 0) of the point of triangle (a, b, c)
+/// closest to p; a degenerate triangle gives its nearest corner.
+void closest_point_weights(const double* p, const double* a, const double* b, const double* c,
+                           double w[3]);
+
 /// A triangle soup with a uniform grid over its triangles for closest-point queries.
 class SurfaceIndex {
  public:

@@ -1074,7 +1074,7 @@ TEST(PathRelease, NearestPointOnATriangleInEachRegion) {
   };
   for (const Case& k : cases) {
     double w[3];
-    mapping::nearest_on_triangle(k.p, a, b, c, w);
+    builder::closest_point_weights(k.p, a, b, c, w);
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(w[i], k.w[i], 1e-12) << k.p[0] << "," << k.p[1];
   }
 }
@@ -1119,8 +1119,8 @@ TEST(PathRelease, ShearAlongATracedPathRelaxesOnTheSourceSurface) {
     for (std::size_t f = 0; f < grid.triangle_count(); ++f) {
       const std::uint32_t* t = &grid.triangles[3 * f];
       double w[3], p[3];
-      mapping::nearest_on_triangle(&x[3 * v], &grid.vertices[3 * t[0]], &grid.vertices[3 * t[1]],
-                                   &grid.vertices[3 * t[2]], w);
+      builder::closest_point_weights(&x[3 * v], &grid.vertices[3 * t[0]], &grid.vertices[3 * t[1]],
+                                     &grid.vertices[3 * t[2]], w);
       mapping::SurfacePoint sp;
       for (int k = 0; k < 3; ++k) sp.v[k] = t[k], sp.w[k] = w[k];
       place(sp, p);

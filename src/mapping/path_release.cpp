@@ -4,49 +4,10 @@
 #include <cmath>
 #include <limits>
 
+#include "builder/surface_distance.h"
 #include "mapping/mean_value_param.h"
 
 namespace cadinterp::mapping {
-
-// Ericson, Real-Time Collision Detection, 5.1.5: the Voronoi regions of the vertices, then of
-// the edges, else the face.
-void nearest_on_triangle(const double* p, const double* a, const double* b, const double* c,
-                         double w[3]) {
-  auto dot = [](const double* x, const double* y) {
-    return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-  };
-  double ab[3], ac[3], ap[3], bp[3], cp[3];
-  for (int k = 0; k < 3; ++k) {
-    ab[k] = b[k] - a[k];
-    ac[k] = c[k] - a[k];
-    ap[k] = p[k] - a[k];
-    bp[k] = p[k] - b[k];
-    cp[k] = p[k] - c[k];
-  }
-  const double d1 = dot(ab, ap), d2 = dot(ac, ap), d3 = dot(ab, bp), d4 = dot(ac, bp),
-               d5 = dot(ab, cp), d6 = dot(ac, cp);
-  auto set = [&](double x, double y, double z) { w[0] = x, w[1] = y, w[2] = z; };
-  if (d1 <= 0 && d2 <= 0) return set(1, 0, 0);
-  if (d3 >= 0 && d4 <= d3) return set(0, 1, 0);
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double t = d1 / (d1 - d3);
-    return set(1 - t, t, 0);
-  }
-  if (d6 >= 0 && d5 <= d6) return set(0, 0, 1);
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double t = d2 / (d2 - d6);
-    return set(1 - t, 0, t);
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return set(0, 1 - t, t);
-  }
-  const double den = 1 / (va + vb + vc);
-  set(va * den, vb * den, vc * den);
-}
 
 void release_traced_paths(const builder::Sample& source, const Surface& ss,
                           const builder::Sample& canonical,
@@ -131,7 +92,8 @@ void release_traced_paths(const builder::Sample& source, const Surface& ss,
       for (int t : region) {
         const std::uint32_t* tv = &source.triangles[3 * std::size_t(t)];
         double w[3], p[3] = {0, 0, 0};
-        nearest_on_triangle(goal, ss.position(tv[0]), ss.position(tv[1]), ss.position(tv[2]), w);
+        builder::closest_point_weights(goal, ss.position(tv[0]), ss.position(tv[1]),
+                                       ss.position(tv[2]), w);
         for (int k = 0; k < 3; ++k)
           for (int a = 0; a < 3; ++a) p[a] += w[k] * ss.position(tv[k])[a];
         const double d = std::hypot(p[0] - goal[0], p[1] - goal[1], p[2] - goal[2]);

@@ -17,17 +17,14 @@
 
 namespace cadinterp::mapping {
 
-/// Barycentric weights of the point of triangle (a, b, c) nearest to p.
-void nearest_on_triangle(const double* p, const double* a, const double* b, const double* c,
-                         double w[3]);
-
 /// Jacobi sweeps over the canonical vertices `movable` (the caller's choice: near traced paths,
 /// on no CAD edge, no anchor): each moves by 0.8 of the way towards the canonical mean-value
 /// average (Floater's weights, from the canonical's surface triangles) of its surface
 /// neighbours' mapped positions `x`, and that point is projected to the nearest point of the
-/// source surface among the triangles within 3 rings of its current ones (`where`), in the same
-/// B-rep face (triangle tag). `where` and `x` are updated for the movable vertices, `x` through
-/// `place` (the caller's position of a surface point, e.g. on a smooth reconstruction).
+/// source surface (builder::closest_point_weights) among the triangles within 3 rings of its
+/// current ones (`where`), in the same B-rep face (triangle tag). `where` and `x` are updated for
+/// the movable vertices, `x` through `place` (the caller's position of a surface point, e.g. on a
+/// smooth reconstruction).
 void release_traced_paths(const builder::Sample& source, const Surface& source_surface,
                           const builder::Sample& canonical,
                           const std::vector<std::uint32_t>& movable, int sweeps,
