@@ -1,6 +1,7 @@
 #include "mapping/layout_paths.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -266,6 +267,53 @@ bool cyclic_order_agrees(const PathEnd& a, const PathEnd& b) {
     return false;
   };
   return same(na.first, nb.first) && same(na.second, nb.second);
+}
+
+namespace {
+
+// `chain`'s points at kAlikeSamples + 1 equal arc-length fractions, and its length.
+constexpr int kAlikeSamples = 16;
+std::vector<std::array<double, 3>> resample_chain(const Surface& s,
+                                                  const std::vector<std::uint32_t>& chain,
+                                                  double& length) {
+  std::vector<double> at(chain.size(), 0.0);
+  for (std::size_t i = 1; i < chain.size(); ++i)
+    at[i] = at[i - 1] + distance(s.position(chain[i - 1]), s.position(chain[i]));
+  length = at.back();
+  std::vector<std::array<double, 3>> points(kAlikeSamples + 1);
+  std::size_t seg = 0;
+  for (int k = 0; k <= kAlikeSamples; ++k) {
+    const double want = length * k / kAlikeSamples;
+    while (seg + 2 < chain.size() && at[seg + 1] < want) ++seg;
+    const double span = at[seg + 1] - at[seg];
+    const double f = span > 0 ? std::clamp((want - at[seg]) / span, 0.0, 1.0) : 0.0;
+    const double* x = s.position(chain[seg]);
+    const double* y = s.position(chain[seg + 1]);
+    for (std::size_t d = 0; d < 3; ++d) points[std::size_t(k)][d] = x[d] + f * (y[d] - x[d]);
+  }
+  return points;
+}
+
+}  // namespace
+
+bool paths_run_alike(const Surface& sa, const std::vector<std::uint32_t>& a, const Surface& sb,
+                     const std::vector<std::uint32_t>& b) {
+  if (a.size() < 2 || b.size() < 2) return false;
+  double la = 0, lb = 0;
+  const auto pa = resample_chain(sa, a, la), pb = resample_chain(sb, b, lb);
+  double worst = 0;
+  for (int k = 0; k <= kAlikeSamples; ++k) {
+    const double t = double(k) / kAlikeSamples;
+    double off2 = 0;
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double moved =
+          (1 - t) * (pb[0][d] - pa[0][d]) + t * (pb[kAlikeSamples][d] - pa[kAlikeSamples][d]);
+      const double off = pb[std::size_t(k)][d] - pa[std::size_t(k)][d] - moved;
+      off2 += off * off;
+    }
+    worst = std::max(worst, std::sqrt(off2));
+  }
+  return worst <= 0.25 * std::max(la, lb);
 }
 
 }  // namespace cadinterp::mapping

@@ -81,6 +81,18 @@ bool cyclic_order_agrees(const PathEnd& a, const PathEnd& b);
 std::vector<int> anchor_vertices(const Surface& s, const std::vector<const double*>& anchors,
                                  double tolerance);
 
+/// Whether two sides' paths between the same anchors run alike. The patch keys cannot tell a
+/// path that goes round a hole one way from one that goes round it the other way (the hole is
+/// joined to the loop either way), yet the two disk maps then shear the region between the two
+/// routes against each other (measured on the OpenCASCADE hub: a slit round one bolt hole on one
+/// side and round its neighbour on the other, 4010 inverted tets over the flange). Both chains
+/// are resampled at 17 equal arc-length fractions t; where the shapes differ only by the
+/// parameter change, point t of `b` is point t of `a` moved as the ends moved (linearly in t), up
+/// to the meshes' zigzag. True when no point is off by more than a quarter of the longer path.
+/// Chains of fewer than two vertices never run alike.
+bool paths_run_alike(const Surface& sa, const std::vector<std::uint32_t>& a, const Surface& sb,
+                     const std::vector<std::uint32_t>& b);
+
 /// Marks both half-edges of every edge along `chain` as cut.
 void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts);
 

@@ -421,6 +421,42 @@ TEST(LayoutPaths, CyclicOrderCheckRejectsAPathOnTheWrongSideOfAnAnchor) {
   EXPECT_TRUE(mapping::cyclic_order_agrees(a2, b2));
 }
 
+// Two sides' paths between the same anchors, on a flat face with a hole of radius 2 at (5, 0)
+// between the anchors (0, 0) and (10, 0): the canonical is the source scaled by 1.2 and moved by
+// (30, 5, 0). A path over the hole on both sides runs alike, zigzag and all, and so does one
+// with a few more vertices; a path over the hole on one side and under it on the other does not
+// (the patch keys cannot tell them apart, the disk maps would shear the face between them).
+TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
+  builder::Sample src, can;
+  auto add = [](builder::Sample& s, double x, double y) {
+    s.vertices.insert(s.vertices.end(), {x, y, 0.0});
+    return std::uint32_t(s.vertices.size() / 3 - 1);
+  };
+  auto moved = [&](double x, double y) { return add(can, 30 + 1.2 * x, 5 + 1.2 * y); };
+  const std::uint32_t s0 = add(src, 0, 0), s1 = add(src, 10, 0);
+  std::vector<std::uint32_t> src_over{s0}, can_over{moved(0, 0)}, can_fine{moved(0, 0)},
+      can_under{moved(0, 0)};
+  const double over[][2] = {{2, 1.5}, {3.5, 2.8}, {5, 3.2}, {6.5, 2.6}, {8, 1.4}};
+  for (const auto& q : over) {
+    src_over.push_back(add(src, q[0], q[1]));
+    can_over.push_back(moved(q[0], q[1] + 0.3));
+    can_under.push_back(moved(q[0], -q[1]));
+  }
+  for (int k = 1; k < 10; ++k) {
+    const double x = k, y = std::sqrt(std::max(0.0, 9 - (x - 5) * (x - 5))) + 0.4 * (k % 2);
+    can_fine.push_back(moved(x, y));
+  }
+  src_over.push_back(s1);
+  for (auto* c : {&can_over, &can_fine, &can_under}) c->push_back(moved(10, 0));
+  const mapping::Surface ss{&src, {}}, cs{&can, {}};
+  EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_over));
+  EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_fine));
+  EXPECT_TRUE(mapping::paths_run_alike(cs, can_over, ss, src_over));
+  EXPECT_FALSE(mapping::paths_run_alike(ss, src_over, cs, can_under));
+  EXPECT_FALSE(mapping::paths_run_alike(cs, can_under, ss, src_over));
+  EXPECT_FALSE(mapping::paths_run_alike(ss, {s0}, cs, can_over));
+}
+
 // P1-harmonic extension reproduces affine maps exactly (a mirror image here), and the quality
 // check sees that every mirrored tet is inverted.
 TEST(MeshMapper, HarmonicInteriorIsExactForAffineMapsAndInversionsAreCounted) {

@@ -394,6 +394,11 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     src_anchor_of_all.push_back(vertex_at(ss, a.source, src_tol));
     can_anchor_of_all.push_back(vertex_at(cs, a.canonical, can_tol));
   }
+  // Both sides' paths between the same anchors must run alike (paths_run_alike).
+  auto paths_alike = [&](const std::vector<std::uint32_t>& chain_s,
+                         const std::vector<std::uint32_t>& chain_c) {
+    return paths_run_alike(ss, chain_s, cs, chain_c);
+  };
   std::vector<Patch> sp, cp;
   for (int round = 0;; ++round) {
     if (!build_patches(ss, src_cuts, src_anchor, src_tol, true, sp, why)) {
@@ -424,339 +429,361 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     // reachable once another is joined.
     bool split = false;
     std::size_t tried = 0;
-    for (std::size_t hole_index = 0; hole_index < c.holes.size() && !split; ++hole_index) {
-      const Loop& hole = c.holes[hole_index];
-      if (hole.anchors.empty()) continue;
-      // Two paths, first loop -> hole, between the same anchors on both sides. Candidates: each
-      // anchor a1 of the first loop, nearest the hole first (canonical positions), with the
-      // first-loop anchor half-way round from it (a2) and, on the hole, the anchor nearest a1
-      // (b1) and the one half-way round from that (b2). A candidate is kept when both paths exist
-      // on both sides and the two layouts still have the same patch keys (a path leaving an
-      // anchor into a one-triangle wedge, measured on the OpenCASCADE hub, has none).
-      auto canon_pos = [&](int m) { return corr.anchors[static_cast<std::size_t>(m)].canonical; };
-      auto dist = [](const double* p, const double* q) {
-        return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-      };
-      auto nearest_on_hole = [&](int a) {
-        std::size_t nearest = 0;
-        double best = std::numeric_limits<double>::infinity();
-        for (std::size_t k = 0; k < hole.anchors.size(); ++k) {
-          const double d = dist(canon_pos(hole.anchors[k]), canon_pos(a));
-          if (d < best) {
-            best = d;
-            nearest = k;
+    //
+    // A patch with several holes (the OpenCASCADE hub's flange: rim, bore and five bolt holes)
+    // first gets a tree of short slits, as Prim's algorithm grows a spanning tree: the hole
+    // nearest the first loop (canonical positions, from its anchors to the loop's vertices)
+    // joins it by a slit not much longer than that distance (to an anchor, or to a new one), and
+    // the next round measures from the grown loop. The two-path splits and the long slits of the
+    // general order below run from the first loop's anchors, which on a face bounded by circles
+    // are a seam's ends: paths across the whole face, round holes not yet joined, that trap
+    // later holes or go round a hole one way on one side and the other way on the other (the
+    // hub: 2 of 10 pairs folded over the flange). Only where no short slit exists does the
+    // general order run.
+    auto dist = [](const double* p, const double* q) {
+      return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+    };
+    std::vector<std::pair<double, std::size_t>> hole_order;
+    for (std::size_t h = 0; h < c.holes.size(); ++h) {
+      double near = std::numeric_limits<double>::infinity();
+      for (int b : c.holes[h].anchors)
+        for (std::uint32_t v : c.loop)
+          near = std::min(
+              near, dist(corr.anchors[static_cast<std::size_t>(b)].canonical, cs.position(v)));
+      hole_order.emplace_back(near, h);
+    }
+    if (c.holes.size() > 1) std::stable_sort(hole_order.begin(), hole_order.end());
+    const int first_pass = c.holes.size() > 1 ? 0 : 1;
+    for (int pass = first_pass; pass < 2 && !split; ++pass)
+      for (const auto& [near, hole_index] : hole_order) {
+        if (split) break;
+        const Loop& hole = c.holes[hole_index];
+        if (hole.anchors.empty()) continue;
+        const bool short_only = pass == 0;
+        // Two paths, first loop -> hole, between the same anchors on both sides. Candidates: each
+        // anchor a1 of the first loop, nearest the hole first (canonical positions), with the
+        // first-loop anchor half-way round from it (a2) and, on the hole, the anchor nearest a1
+        // (b1) and the one half-way round from that (b2). A candidate is kept when both paths exist
+        // on both sides and the two layouts still have the same patch keys (a path leaving an
+        // anchor into a one-triangle wedge, measured on the OpenCASCADE hub, has none).
+        auto canon_pos = [&](int m) { return corr.anchors[static_cast<std::size_t>(m)].canonical; };
+        auto nearest_on_hole = [&](int a) {
+          std::size_t nearest = 0;
+          double best = std::numeric_limits<double>::infinity();
+          for (std::size_t k = 0; k < hole.anchors.size(); ++k) {
+            const double d = dist(canon_pos(hole.anchors[k]), canon_pos(a));
+            if (d < best) {
+              best = d;
+              nearest = k;
+            }
           }
-        }
-        return std::make_pair(nearest, best);
-      };
-      const std::size_t M = c.anchors.size();
-      std::vector<std::pair<double, std::size_t>> order;
-      for (std::size_t i = 0; i < M; ++i)
-        order.emplace_back(nearest_on_hole(c.anchors[i]).second, i);
-      std::sort(order.begin(), order.end());
-      // An anchor where earlier splits met occurs several times on the loop, and several
-      // anchors may share one vertex (a closed edge's vertex): try each vertex once.
-      std::vector<int> seen;
-      order.erase(
-          std::remove_if(order.begin(), order.end(),
-                         [&](const std::pair<double, std::size_t>& o) {
-                           const int a =
-                               can_anchor_of_all[static_cast<std::size_t>(c.anchors[o.second])];
-                           if (std::find(seen.begin(), seen.end(), a) != seen.end()) return true;
-                           seen.push_back(a);
-                           return false;
-                         }),
-          order.end());
-      const std::vector<std::pair<double, std::size_t>> all_first = order;
-      if (order.size() > 12) order.resize(12);
-      // Traces the paths (pairs of anchors) on both sides and keeps them when the two layouts
-      // still have the same patch keys.
-      auto try_split = [&](const std::vector<std::pair<int, int>>& paths) {
-        std::vector<char> try_cuts[2] = {src_cuts, can_cuts};
-        std::vector<std::vector<std::uint32_t>> try_traced[2];
-        bool ok = true;
-        for (int side = 0; side < 2 && ok; ++side) {
-          const Surface& surf = side == 0 ? ss : cs;
-          std::vector<char>& cuts = try_cuts[side];
-          const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
-          const int patch = static_cast<int>(side == 0 ? sidx : holed);
-          const double tol = side == 0 ? src_tol : can_tol;
-          for (const auto& [x, y] : paths) {
-            const Anchor& ax = corr.anchors[static_cast<std::size_t>(x)];
-            const Anchor& ay = corr.anchors[static_cast<std::size_t>(y)];
-            const int vx = vertex_at(surf, side == 0 ? ax.source : ax.canonical, tol);
-            const int vy = vertex_at(surf, side == 0 ? ay.source : ay.canonical, tol);
-            std::vector<std::uint32_t> chain;
-            if (vx >= 0 && vy >= 0) {
-              chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
-                                    static_cast<std::uint32_t>(vy), &of, patch);
-              // A coarse mesh may have no vertex off the loops between them (a small hole near
-              // the rim: one triangle row): the path may then touch loops away from anchors, and
-              // build_patches cuts the patch open there; the anchors' cyclic order is unchanged.
-              if (chain.size() < 2) {
-                std::vector<char> never(surf.sample->vertex_count(), 0);
-                for (int v : side == 0 ? src_anchor_of_all : can_anchor_of_all)
-                  if (v >= 0) never[static_cast<std::size_t>(v)] = 1;
-                // A slit may not touch the two loops it joins away from its ends either: the
-                // piece between it and the loop would be enclosed without an anchor.
-                if (paths.size() == 1) {
-                  const Patch& pp = side == 0 ? sp[sidx] : c;
-                  for (std::uint32_t v : pp.loop) never[v] = 1;
-                  for (std::uint32_t v : pp.holes[hole_index].vertices) never[v] = 1;
-                }
-                // Nor the first path of this split: touching it would enclose anchorless bits.
-                for (const auto& ch : try_traced[side])
-                  for (std::uint32_t v : ch) never[v] = 1;
+          return std::make_pair(nearest, best);
+        };
+        const std::size_t M = c.anchors.size();
+        std::vector<std::pair<double, std::size_t>> order;
+        for (std::size_t i = 0; i < M; ++i)
+          order.emplace_back(nearest_on_hole(c.anchors[i]).second, i);
+        std::sort(order.begin(), order.end());
+        // An anchor where earlier splits met occurs several times on the loop, and several
+        // anchors may share one vertex (a closed edge's vertex): try each vertex once.
+        std::vector<int> seen;
+        order.erase(
+            std::remove_if(order.begin(), order.end(),
+                           [&](const std::pair<double, std::size_t>& o) {
+                             const int a =
+                                 can_anchor_of_all[static_cast<std::size_t>(c.anchors[o.second])];
+                             if (std::find(seen.begin(), seen.end(), a) != seen.end()) return true;
+                             seen.push_back(a);
+                             return false;
+                           }),
+            order.end());
+        const std::vector<std::pair<double, std::size_t>> all_first = order;
+        if (order.size() > 12) order.resize(12);
+        // Traces the paths (pairs of anchors) on both sides and keeps them when the two layouts
+        // still have the same patch keys.
+        auto try_split = [&](const std::vector<std::pair<int, int>>& paths) {
+          std::vector<char> try_cuts[2] = {src_cuts, can_cuts};
+          std::vector<std::vector<std::uint32_t>> try_traced[2];
+          bool ok = true;
+          for (int side = 0; side < 2 && ok; ++side) {
+            const Surface& surf = side == 0 ? ss : cs;
+            std::vector<char>& cuts = try_cuts[side];
+            const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
+            const int patch = static_cast<int>(side == 0 ? sidx : holed);
+            const double tol = side == 0 ? src_tol : can_tol;
+            for (const auto& [x, y] : paths) {
+              const Anchor& ax = corr.anchors[static_cast<std::size_t>(x)];
+              const Anchor& ay = corr.anchors[static_cast<std::size_t>(y)];
+              const int vx = vertex_at(surf, side == 0 ? ax.source : ax.canonical, tol);
+              const int vy = vertex_at(surf, side == 0 ? ay.source : ay.canonical, tol);
+              std::vector<std::uint32_t> chain;
+              if (vx >= 0 && vy >= 0) {
                 chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
-                                      static_cast<std::uint32_t>(vy), &of, patch, &never);
-              }
-            }
-            if (chain.size() < 2) {
-              ok = false;
-              break;
-            }
-            cut_along(surf, chain, cuts);
-            try_traced[side].push_back(std::move(chain));
-          }
-        }
-        if (!ok) return false;
-        std::vector<Patch> tsp, tcp;
-        std::string ignored;
-        if (!build_patches(ss, try_cuts[0], src_anchor, src_tol, true, tsp, ignored) ||
-            !build_patches(cs, try_cuts[1], can_anchor, can_tol, true, tcp, ignored) ||
-            tsp.size() != tcp.size())
-          return false;
-        std::vector<std::vector<int>> ks, kc;
-        for (const Patch& q : tsp) ks.push_back(q.key());
-        for (const Patch& q : tcp) kc.push_back(q.key());
-        std::sort(ks.begin(), ks.end());
-        std::sort(kc.begin(), kc.end());
-        if (ks != kc) return false;
-        src_cuts = std::move(try_cuts[0]);
-        can_cuts = std::move(try_cuts[1]);
-        for (auto& ch : try_traced[0]) src_traced.push_back(std::move(ch));
-        for (auto& ch : try_traced[1]) can_traced.push_back(std::move(ch));
-        return true;
-      };
-      if (M >= 2 && hole.anchors.size() >= 2) {
-        for (const auto& [d0, i] : order) {
-          (void)d0;
-          const int a1 = c.anchors[i], a2 = c.anchors[(i + M / 2) % M];
-          const std::size_t nearest = nearest_on_hole(a1).first;
-          const int b1 = hole.anchors[nearest];
-          const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
-          ++tried;
-          if (try_split({{a1, b1}, {a2, b2}})) {
-            split = true;
-            break;
-          }
-        }
-      }
-      // Otherwise one path, a slit from the first loop to the hole: the patch stays one piece, cut
-      // open along the slit like a periodic face along its seam (patch_layout.h), which makes it
-      // a disk whose loop runs round the first loop, along the slit, round the hole and back. On
-      // a face with many holes (the OpenCASCADE hub's flange: rim, bore and five bolt holes) the
-      // two-path split runs out of anchor pairs whose paths avoid each other and the other holes
-      // on both sides; a slit needs one path and one anchor per loop, and the next round connects
-      // the next hole to the loop this one joined (a spanning tree of slits). Candidates: every
-      // (first-loop vertex, hole anchor) pair by increasing canonical distance, up to 24.
-      if (!split) {
-        // An anchor whose only triangle in the patch lies between two loop edges (a one-triangle
-        // wedge, common at the hub's rim on both sides) has no edge a path could leave it by:
-        // such candidates are skipped before tracing.
-        std::vector<char> leaves[2];
-        for (int side = 0; side < 2; ++side) {
-          const Surface& surf = side == 0 ? ss : cs;
-          const std::vector<char>& cuts = side == 0 ? src_cuts : can_cuts;
-          const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
-          const int patch = static_cast<int>(side == 0 ? sidx : holed);
-          leaves[side].assign(surf.sample->vertex_count(), 0);
-          for (int h = 0; h < 3 * surf.triangles(); ++h)
-            if (of[static_cast<std::size_t>(h / 3)] == patch && !cuts[static_cast<std::size_t>(h)])
-              leaves[side][surf.from(h)] = 1;
-        }
-        auto usable = [&](int m) {
-          const int vs = src_anchor_of_all[static_cast<std::size_t>(m)];
-          const int vc = can_anchor_of_all[static_cast<std::size_t>(m)];
-          return vs >= 0 && vc >= 0 && leaves[0][static_cast<std::size_t>(vs)] &&
-                 leaves[1][static_cast<std::size_t>(vc)];
-        };
-        std::vector<std::tuple<double, int, int>> slits;
-        for (const auto& o : all_first) {
-          const int a = c.anchors[o.second];
-          if (!usable(a)) continue;
-          for (int b : hole.anchors)
-            if (usable(b)) slits.emplace_back(dist(canon_pos(a), canon_pos(b)), a, b);
-        }
-        std::sort(slits.begin(), slits.end());
-        slits.erase(std::unique(slits.begin(), slits.end()), slits.end());
-        if (slits.size() > 24) slits.resize(24);
-        for (const auto& [d0, a, b] : slits) {
-          (void)d0;
-          ++tried;
-          if (try_split({{a, b}})) {
-            split = true;
-            break;
-          }
-        }
-      }
-      // Last, a slit from a hole anchor to the nearest vertex of the first loop that is no anchor,
-      // on each side, which becomes a new anchor (a Steiner point of the layout, as Kraevoy and
-      // Sheffer add): on a coarse mesh the hole may be one triangle row from the loop, so that no
-      // path between two anchors avoids touching a loop. The canonical side picks the vertex; the
-      // source side the nearest vertex between the same two anchors of the same loop, so the new
-      // anchor lies on the same CAD path on both sides and the neighbouring patch gets it too.
-      if (!split) {
-        const Patch& s = sp[sidx];
-        auto occurs_once = [](const std::vector<std::uint32_t>& loop, std::uint32_t v) {
-          return std::count(loop.begin(), loop.end(), v) == 1;
-        };
-        const std::vector<int> src_of = patch_of_triangles(ss, sp);
-        const std::vector<int> can_of = patch_of_triangles(cs, cp);
-        std::vector<int> hole_anchors(hole.anchors);
-        std::sort(hole_anchors.begin(), hole_anchors.end());
-        hole_anchors.erase(std::unique(hole_anchors.begin(), hole_anchors.end()),
-                           hole_anchors.end());
-        // The anchors before and after loop vertex v of patch P's first loop.
-        auto segment_of = [](const Patch& P, std::uint32_t v) {
-          const double L = P.loop_s.back();
-          const double s_p =
-              P.loop_s[std::size_t(std::find(P.loop.begin(), P.loop.end(), v) - P.loop.begin())];
-          // The last anchor at or before it along the loop (of several at one vertex, the last
-          // in loop order), and the anchor after that one.
-          const std::size_t Mp = P.anchors.size();
-          std::size_t best = 0;
-          double back = L + 1;
-          for (std::size_t k = 0; k < Mp; ++k) {
-            const double db = std::fmod(s_p - P.anchor_s[k] + 2 * L, L);
-            if (db < back - 1e-12 * L ||
-                (std::fabs(db - back) <= 1e-12 * L && P.anchor_s[(k + 1) % Mp] != P.anchor_s[k])) {
-              back = db;
-              best = k;
-            }
-          }
-          return std::make_pair(P.anchors[best], P.anchors[(best + 1) % Mp]);
-        };
-        // P's first-loop vertices that are no anchor and occur once on it; with A >= 0 only
-        // those strictly between anchors A and B.
-        auto loop_targets = [&](const Patch& P, const std::vector<int>& anchor_of, int A, int B) {
-          std::vector<char> t(anchor_of.size(), 0);
-          const double Ls = P.loop_s.back();
-          const std::size_t Ms = P.anchors.size();
-          for (std::size_t k = 0; k < Ms; ++k) {
-            if (A >= 0 && (P.anchors[k] != A || P.anchors[(k + 1) % Ms] != B)) continue;
-            const double s0 = P.anchor_s[k];
-            double len = std::fmod(P.anchor_s[(k + 1) % Ms] - s0 + 2 * Ls, Ls);
-            if (Ms == 1 || A < 0) len = 2 * Ls;
-            for (std::size_t i = 0; i < P.loop.size(); ++i) {
-              const double r = std::fmod(P.loop_s[i] - s0 + 2 * Ls, Ls);
-              const std::uint32_t v = P.loop[i];
-              if ((A < 0 || (r > 0 && r < len)) && anchor_of[v] < 0 && occurs_once(P.loop, v))
-                t[v] = 1;
-            }
-            if (A < 0) break;
-          }
-          return t;
-        };
-        for (int b : hole_anchors) {
-          const int vb[2] = {src_anchor_of_all[static_cast<std::size_t>(b)],
-                             can_anchor_of_all[static_cast<std::size_t>(b)]};
-          if (vb[0] < 0 || vb[1] < 0) continue;
-          const Surface* surf[2] = {&ss, &cs};
-          const std::vector<char>* cuts[2] = {&src_cuts, &can_cuts};
-          const std::vector<int>* of[2] = {&src_of, &can_of};
-          const Patch* P[2] = {&s, &c};
-          const std::vector<int>* anchor_of[2] = {&src_anchor_of, &can_anchor_of};
-          const int patch[2] = {int(sidx), int(holed)};
-          std::vector<std::uint32_t> chain[2];
-          // Either side may lead: the canonical first, then the source.
-          for (int lead : {1, 0}) {
-            ++tried;
-            const int follow = 1 - lead;
-            chain[lead] = shortest_path_to_any(
-                *surf[lead], *cuts[lead], static_cast<std::uint32_t>(vb[lead]),
-                loop_targets(*P[lead], *anchor_of[lead], -1, -1), *of[lead], patch[lead]);
-            if (chain[lead].size() < 2) continue;
-            const auto [A, B] = segment_of(*P[lead], chain[lead].back());
-            chain[follow] = shortest_path_to_any(
-                *surf[follow], *cuts[follow], static_cast<std::uint32_t>(vb[follow]),
-                loop_targets(*P[follow], *anchor_of[follow], A, B), *of[follow], patch[follow]);
-            // The two slits must be alike: a follower path much longer than the leader's went
-            // round something the leader's did not (measured on the hub: 76 edges against 10, and
-            // hundreds of inverted tets after).
-            if (chain[follow].size() >= 2) {
-              auto length = [](const Surface& sf, const std::vector<std::uint32_t>& ch) {
-                double l = 0;
-                for (std::size_t i = 0; i + 1 < ch.size(); ++i) {
-                  const double* x = sf.position(ch[i]);
-                  const double* y = sf.position(ch[i + 1]);
-                  l += std::hypot(x[0] - y[0], x[1] - y[1], x[2] - y[2]);
+                                      static_cast<std::uint32_t>(vy), &of, patch);
+                // A coarse mesh may have no vertex off the loops between them (a small hole near
+                // the rim: one triangle row): the path may then touch loops away from anchors, and
+                // build_patches cuts the patch open there; the anchors' cyclic order is unchanged.
+                if (chain.size() < 2) {
+                  std::vector<char> never(surf.sample->vertex_count(), 0);
+                  for (int v : side == 0 ? src_anchor_of_all : can_anchor_of_all)
+                    if (v >= 0) never[static_cast<std::size_t>(v)] = 1;
+                  // A slit may not touch the two loops it joins away from its ends either: the
+                  // piece between it and the loop would be enclosed without an anchor.
+                  if (paths.size() == 1) {
+                    const Patch& pp = side == 0 ? sp[sidx] : c;
+                    for (std::uint32_t v : pp.loop) never[v] = 1;
+                    for (std::uint32_t v : pp.holes[hole_index].vertices) never[v] = 1;
+                  }
+                  // Nor the first path of this split: touching it would enclose anchorless bits.
+                  for (const auto& ch : try_traced[side])
+                    for (std::uint32_t v : ch) never[v] = 1;
+                  chain = shortest_path(surf, cuts, static_cast<std::uint32_t>(vx),
+                                        static_cast<std::uint32_t>(vy), &of, patch, &never);
                 }
-                return l;
-              };
-              const double ratio =
-                  (length(*surf[follow], chain[follow]) / surf[follow]->sample->bbox_diagonal()) /
-                  (length(*surf[lead], chain[lead]) / surf[lead]->sample->bbox_diagonal());
-              if (ratio < 2.0 && ratio > 0.5) break;
-              chain[follow].clear();
+              }
+              if (chain.size() < 2) {
+                ok = false;
+                break;
+              }
+              cut_along(surf, chain, cuts);
+              try_traced[side].push_back(std::move(chain));
             }
           }
-          if (chain[0].size() < 2 || chain[1].size() < 2) continue;
-          const std::vector<std::uint32_t>& chain_s = chain[0];
-          const std::vector<std::uint32_t>& chain_c = chain[1];
-          const std::uint32_t ps = chain_s.back(), pc = chain_c.back();
-          // The new anchor, and every table of anchors (positions are held by pointer).
-          Anchor na;
-          na.id = {-1, static_cast<std::int64_t>(corr.anchors.size())};
-          for (int a = 0; a < 3; ++a) {
-            na.source[a] = source.vertices[3 * std::size_t(ps) + std::size_t(a)];
-            na.canonical[a] = canonical.vertices[3 * std::size_t(pc) + std::size_t(a)];
-          }
-          corr.anchors.push_back(na);
-          auto refresh = [&] {
-            src_anchor.clear();
-            can_anchor.clear();
-            for (const Anchor& a : corr.anchors) {
-              src_anchor.push_back(a.source);
-              can_anchor.push_back(a.canonical);
-            }
-          };
-          refresh();
-          std::vector<char> try_src = src_cuts, try_can = can_cuts;
-          cut_along(ss, chain_s, try_src);
-          cut_along(cs, chain_c, try_can);
+          for (std::size_t k = 0; ok && k < paths.size(); ++k)
+            ok = paths_alike(try_traced[0][k], try_traced[1][k]);
+          if (!ok) return false;
           std::vector<Patch> tsp, tcp;
           std::string ignored;
-          bool same = build_patches(ss, try_src, src_anchor, src_tol, true, tsp, ignored) &&
-                      build_patches(cs, try_can, can_anchor, can_tol, true, tcp, ignored) &&
-                      tsp.size() == tcp.size();
-          if (same) {
-            std::vector<std::vector<int>> ks, kc;
-            for (const Patch& q : tsp) ks.push_back(q.key());
-            for (const Patch& q : tcp) kc.push_back(q.key());
-            std::sort(ks.begin(), ks.end());
-            std::sort(kc.begin(), kc.end());
-            same = ks == kc;
+          if (!build_patches(ss, try_cuts[0], src_anchor, src_tol, true, tsp, ignored) ||
+              !build_patches(cs, try_cuts[1], can_anchor, can_tol, true, tcp, ignored) ||
+              tsp.size() != tcp.size())
+            return false;
+          std::vector<std::vector<int>> ks, kc;
+          for (const Patch& q : tsp) ks.push_back(q.key());
+          for (const Patch& q : tcp) kc.push_back(q.key());
+          std::sort(ks.begin(), ks.end());
+          std::sort(kc.begin(), kc.end());
+          if (ks != kc) return false;
+          src_cuts = std::move(try_cuts[0]);
+          can_cuts = std::move(try_cuts[1]);
+          for (auto& ch : try_traced[0]) src_traced.push_back(std::move(ch));
+          for (auto& ch : try_traced[1]) can_traced.push_back(std::move(ch));
+          return true;
+        };
+        if (!short_only && M >= 2 && hole.anchors.size() >= 2) {
+          for (const auto& [d0, i] : order) {
+            (void)d0;
+            const int a1 = c.anchors[i], a2 = c.anchors[(i + M / 2) % M];
+            const std::size_t nearest = nearest_on_hole(a1).first;
+            const int b1 = hole.anchors[nearest];
+            const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
+            ++tried;
+            if (try_split({{a1, b1}, {a2, b2}})) {
+              split = true;
+              break;
+            }
           }
-          if (!same) {
-            corr.anchors.pop_back();
+        }
+        // Otherwise one path, a slit from the first loop to the hole: the patch stays one piece,
+        // cut open along the slit like a periodic face along its seam (patch_layout.h), which makes
+        // it a disk whose loop runs round the first loop, along the slit, round the hole and back.
+        // On a face with many holes (the OpenCASCADE hub's flange: rim, bore and five bolt holes)
+        // the two-path split runs out of anchor pairs whose paths avoid each other and the other
+        // holes on both sides; a slit needs one path and one anchor per loop, and the next round
+        // connects the next hole to the loop this one joined (a spanning tree of slits).
+        // Candidates: every (first-loop vertex, hole anchor) pair by increasing canonical distance,
+        // up to 24.
+        if (!split) {
+          // An anchor whose only triangle in the patch lies between two loop edges (a one-triangle
+          // wedge, common at the hub's rim on both sides) has no edge a path could leave it by:
+          // such candidates are skipped before tracing.
+          std::vector<char> leaves[2];
+          for (int side = 0; side < 2; ++side) {
+            const Surface& surf = side == 0 ? ss : cs;
+            const std::vector<char>& cuts = side == 0 ? src_cuts : can_cuts;
+            const std::vector<int> of = patch_of_triangles(surf, side == 0 ? sp : cp);
+            const int patch = static_cast<int>(side == 0 ? sidx : holed);
+            leaves[side].assign(surf.sample->vertex_count(), 0);
+            for (int h = 0; h < 3 * surf.triangles(); ++h)
+              if (of[static_cast<std::size_t>(h / 3)] == patch &&
+                  !cuts[static_cast<std::size_t>(h)])
+                leaves[side][surf.from(h)] = 1;
+          }
+          auto usable = [&](int m) {
+            const int vs = src_anchor_of_all[static_cast<std::size_t>(m)];
+            const int vc = can_anchor_of_all[static_cast<std::size_t>(m)];
+            return vs >= 0 && vc >= 0 && leaves[0][static_cast<std::size_t>(vs)] &&
+                   leaves[1][static_cast<std::size_t>(vc)];
+          };
+          std::vector<std::tuple<double, int, int>> slits;
+          for (const auto& o : all_first) {
+            const int a = c.anchors[o.second];
+            if (!usable(a)) continue;
+            for (int b : hole.anchors)
+              if (usable(b)) slits.emplace_back(dist(canon_pos(a), canon_pos(b)), a, b);
+          }
+          std::sort(slits.begin(), slits.end());
+          slits.erase(std::unique(slits.begin(), slits.end()), slits.end());
+          if (short_only)
+            slits.erase(std::remove_if(slits.begin(), slits.end(),
+                                       [&](const std::tuple<double, int, int>& t) {
+                                         return std::get<0>(t) > 1.5 * near;
+                                       }),
+                        slits.end());
+          if (slits.size() > 24) slits.resize(24);
+          for (const auto& [d0, a, b] : slits) {
+            (void)d0;
+            ++tried;
+            if (try_split({{a, b}})) {
+              split = true;
+              break;
+            }
+          }
+        }
+        // Last, a slit from a hole anchor to the nearest vertex of the first loop that is no
+        // anchor, on each side, which becomes a new anchor (a Steiner point of the layout, as
+        // Kraevoy and Sheffer add): on a coarse mesh the hole may be one triangle row from the
+        // loop, so that no path between two anchors avoids touching a loop. The canonical side
+        // picks the vertex; the source side the nearest vertex between the same two anchors of the
+        // same loop, so the new anchor lies on the same CAD path on both sides and the neighbouring
+        // patch gets it too.
+        if (!split) {
+          const Patch& s = sp[sidx];
+          auto occurs_once = [](const std::vector<std::uint32_t>& loop, std::uint32_t v) {
+            return std::count(loop.begin(), loop.end(), v) == 1;
+          };
+          const std::vector<int> src_of = patch_of_triangles(ss, sp);
+          const std::vector<int> can_of = patch_of_triangles(cs, cp);
+          std::vector<int> hole_anchors(hole.anchors);
+          std::sort(hole_anchors.begin(), hole_anchors.end());
+          hole_anchors.erase(std::unique(hole_anchors.begin(), hole_anchors.end()),
+                             hole_anchors.end());
+          // The anchors before and after loop vertex v of patch P's first loop.
+          auto segment_of = [](const Patch& P, std::uint32_t v) {
+            const double L = P.loop_s.back();
+            const double s_p =
+                P.loop_s[std::size_t(std::find(P.loop.begin(), P.loop.end(), v) - P.loop.begin())];
+            // The last anchor at or before it along the loop (of several at one vertex, the last
+            // in loop order), and the anchor after that one.
+            const std::size_t Mp = P.anchors.size();
+            std::size_t best = 0;
+            double back = L + 1;
+            for (std::size_t k = 0; k < Mp; ++k) {
+              const double db = std::fmod(s_p - P.anchor_s[k] + 2 * L, L);
+              if (db < back - 1e-12 * L || (std::fabs(db - back) <= 1e-12 * L &&
+                                            P.anchor_s[(k + 1) % Mp] != P.anchor_s[k])) {
+                back = db;
+                best = k;
+              }
+            }
+            return std::make_pair(P.anchors[best], P.anchors[(best + 1) % Mp]);
+          };
+          // P's first-loop vertices that are no anchor and occur once on it; with A >= 0 only
+          // those strictly between anchors A and B.
+          auto loop_targets = [&](const Patch& P, const std::vector<int>& anchor_of, int A, int B) {
+            std::vector<char> t(anchor_of.size(), 0);
+            const double Ls = P.loop_s.back();
+            const std::size_t Ms = P.anchors.size();
+            for (std::size_t k = 0; k < Ms; ++k) {
+              if (A >= 0 && (P.anchors[k] != A || P.anchors[(k + 1) % Ms] != B)) continue;
+              const double s0 = P.anchor_s[k];
+              double len = std::fmod(P.anchor_s[(k + 1) % Ms] - s0 + 2 * Ls, Ls);
+              if (Ms == 1 || A < 0) len = 2 * Ls;
+              for (std::size_t i = 0; i < P.loop.size(); ++i) {
+                const double r = std::fmod(P.loop_s[i] - s0 + 2 * Ls, Ls);
+                const std::uint32_t v = P.loop[i];
+                if ((A < 0 || (r > 0 && r < len)) && anchor_of[v] < 0 && occurs_once(P.loop, v))
+                  t[v] = 1;
+              }
+              if (A < 0) break;
+            }
+            return t;
+          };
+          for (int b : hole_anchors) {
+            const int vb[2] = {src_anchor_of_all[static_cast<std::size_t>(b)],
+                               can_anchor_of_all[static_cast<std::size_t>(b)]};
+            if (vb[0] < 0 || vb[1] < 0) continue;
+            const Surface* surf[2] = {&ss, &cs};
+            const std::vector<char>* cuts[2] = {&src_cuts, &can_cuts};
+            const std::vector<int>* of[2] = {&src_of, &can_of};
+            const Patch* P[2] = {&s, &c};
+            const std::vector<int>* anchor_of[2] = {&src_anchor_of, &can_anchor_of};
+            const int patch[2] = {int(sidx), int(holed)};
+            std::vector<std::uint32_t> chain[2];
+            // Either side may lead: the canonical first, then the source.
+            for (int lead : {1, 0}) {
+              ++tried;
+              const int follow = 1 - lead;
+              chain[lead] = shortest_path_to_any(
+                  *surf[lead], *cuts[lead], static_cast<std::uint32_t>(vb[lead]),
+                  loop_targets(*P[lead], *anchor_of[lead], -1, -1), *of[lead], patch[lead]);
+              if (chain[lead].size() < 2) continue;
+              const auto [A, B] = segment_of(*P[lead], chain[lead].back());
+              chain[follow] = shortest_path_to_any(
+                  *surf[follow], *cuts[follow], static_cast<std::uint32_t>(vb[follow]),
+                  loop_targets(*P[follow], *anchor_of[follow], A, B), *of[follow], patch[follow]);
+              // The two slits must be alike (paths_alike).
+              if (chain[follow].size() >= 2) {
+                if (paths_alike(chain[0], chain[1])) break;
+                chain[follow].clear();
+              }
+            }
+            if (chain[0].size() < 2 || chain[1].size() < 2) continue;
+            const std::vector<std::uint32_t>& chain_s = chain[0];
+            const std::vector<std::uint32_t>& chain_c = chain[1];
+            const std::uint32_t ps = chain_s.back(), pc = chain_c.back();
+            // The new anchor, and every table of anchors (positions are held by pointer).
+            Anchor na;
+            na.id = {-1, static_cast<std::int64_t>(corr.anchors.size())};
+            for (int a = 0; a < 3; ++a) {
+              na.source[a] = source.vertices[3 * std::size_t(ps) + std::size_t(a)];
+              na.canonical[a] = canonical.vertices[3 * std::size_t(pc) + std::size_t(a)];
+            }
+            corr.anchors.push_back(na);
+            auto refresh = [&] {
+              src_anchor.clear();
+              can_anchor.clear();
+              for (const Anchor& a : corr.anchors) {
+                src_anchor.push_back(a.source);
+                can_anchor.push_back(a.canonical);
+              }
+            };
             refresh();
-            continue;
+            std::vector<char> try_src = src_cuts, try_can = can_cuts;
+            cut_along(ss, chain_s, try_src);
+            cut_along(cs, chain_c, try_can);
+            std::vector<Patch> tsp, tcp;
+            std::string ignored;
+            bool same = build_patches(ss, try_src, src_anchor, src_tol, true, tsp, ignored) &&
+                        build_patches(cs, try_can, can_anchor, can_tol, true, tcp, ignored) &&
+                        tsp.size() == tcp.size();
+            if (same) {
+              std::vector<std::vector<int>> ks, kc;
+              for (const Patch& q : tsp) ks.push_back(q.key());
+              for (const Patch& q : tcp) kc.push_back(q.key());
+              std::sort(ks.begin(), ks.end());
+              std::sort(kc.begin(), kc.end());
+              same = ks == kc;
+            }
+            if (!same) {
+              corr.anchors.pop_back();
+              refresh();
+              continue;
+            }
+            const int m = static_cast<int>(corr.anchors.size() - 1);
+            src_anchor_of[ps] = m;
+            can_anchor_of[pc] = m;
+            src_anchor_of_all.push_back(static_cast<int>(ps));
+            can_anchor_of_all.push_back(static_cast<int>(pc));
+            src_cuts = std::move(try_src);
+            can_cuts = std::move(try_can);
+            src_traced.push_back(chain_s);
+            can_traced.push_back(chain_c);
+            split = true;
+            break;
           }
-          const int m = static_cast<int>(corr.anchors.size() - 1);
-          src_anchor_of[ps] = m;
-          can_anchor_of[pc] = m;
-          src_anchor_of_all.push_back(static_cast<int>(ps));
-          can_anchor_of_all.push_back(static_cast<int>(pc));
-          src_cuts = std::move(try_src);
-          can_cuts = std::move(try_can);
-          src_traced.push_back(chain_s);
-          can_traced.push_back(chain_c);
-          split = true;
-          break;
         }
       }
-    }
     if (!split) {
       why =
           "mapping: no paths split a patch with a hole the same way on both sides (anchors "
