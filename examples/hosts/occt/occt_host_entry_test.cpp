@@ -40,7 +40,7 @@ TEST(OcctEntry, HostsAndErrors) {
   ASSERT_NE(wrench, nullptr) << error;
   EXPECT_EQ(wrench->struct_size, sizeof(cadinterp_host));
   EXPECT_STREQ(wrench->name, "occt");
-  EXPECT_EQ(std::string(wrench->identity).rfind("occt wrench v1 (mesh_size=4,", 0), 0u)
+  EXPECT_EQ(std::string(wrench->identity).rfind("occt wrench v2 (mesh_size=4,", 0), 0u)
       << wrench->identity;
   EXPECT_EQ(wrench->parameter_count, 4);
   EXPECT_STREQ(wrench->parameters[3].name, "load_angle");
@@ -76,7 +76,7 @@ TEST(OcctEntry, LoadsFromTheSharedLibrary) {
   const char* error = nullptr;
   const cadinterp_host* host = entry("hub", "mesh_size=16", &error);
   ASSERT_NE(host, nullptr) << error;
-  EXPECT_EQ(std::string(host->identity).rfind("occt hub v1 (mesh_size=16,", 0), 0u);
+  EXPECT_EQ(std::string(host->identity).rfind("occt hub v2 (mesh_size=16,", 0), 0u);
   EXPECT_EQ(host->parameter_count, 3);
   // The library's own copy, not the statically linked one.
   EXPECT_EQ(cadinterp::occt::host_model(host), nullptr);

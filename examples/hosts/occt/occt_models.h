@@ -74,7 +74,9 @@ struct LoadCase {
 
 struct ModelDef {
   std::string name;
-  int version = 1;
+  // In the host identity: 2 since the bisection's new vertices are projected onto the B-rep
+  // (occt_mesh.cpp, project_onto_brep), so stores of v1 meshes are refused.
+  int version = 2;
   std::string description;
   double default_mesh_size = 5.0;  ///< mm
   double default_force = 100.0;    ///< N
