@@ -309,6 +309,20 @@ std::size_t flip_surface(const std::vector<double>& pts, std::vector<std::uint32
   return flips;
 }
 
+// The unit normal of triangle v (zero for a degenerate one).
+void unit_normal(const std::vector<double>& pts, const std::uint32_t* v, double* n) {
+  double u[3], w[3];
+  for (int d = 0; d < 3; ++d) {
+    u[d] = pts[3 * v[1] + d] - pts[3 * v[0] + d];
+    w[d] = pts[3 * v[2] + d] - pts[3 * v[0] + d];
+  }
+  n[0] = u[1] * w[2] - u[2] * w[1];
+  n[1] = u[2] * w[0] - u[0] * w[2];
+  n[2] = u[0] * w[1] - u[1] * w[0];
+  const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  for (int d = 0; d < 3; ++d) n[d] /= l > 0 ? l : 1;
+}
+
 // Tangential smoothing of the vertices inside one B-rep face (not on a locked edge): each moves
 // to the mean of its neighbours, projected back onto its face's surface, and the move is kept
 // only where the smallest angle of its triangles grows and none of them turns by more than
@@ -328,18 +342,7 @@ std::size_t smooth_surface(std::vector<double>& pts, const std::vector<std::uint
       face_of[v] = tri_face[t];
     }
   for (const Edge& e : locked) fixed[e.first] = fixed[e.second] = 1;
-  auto normal = [&](const std::uint32_t* v, double* n) {
-    double u[3], w[3];
-    for (int d = 0; d < 3; ++d) {
-      u[d] = pts[3 * v[1] + d] - pts[3 * v[0] + d];
-      w[d] = pts[3 * v[2] + d] - pts[3 * v[0] + d];
-    }
-    n[0] = u[1] * w[2] - u[2] * w[1];
-    n[1] = u[2] * w[0] - u[0] * w[2];
-    n[2] = u[0] * w[1] - u[1] * w[0];
-    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    for (int d = 0; d < 3; ++d) n[d] /= l > 0 ? l : 1;
-  };
+  auto normal = [&](const std::uint32_t* v, double* n) { unit_normal(pts, v, n); };
   std::size_t moves = 0;
   for (std::uint32_t v = 0; v < nv; ++v) {
     if (fixed[v] || star[v].empty() || face_of[v] < 0) continue;
@@ -401,19 +404,7 @@ void project_onto_brep(std::vector<double>& pts, std::uint32_t first,
     for (int k = 0; k < 3; ++k)
       if (tris[3 * t + std::size_t(k)] >= first)
         star[tris[3 * t + std::size_t(k)] - first].push_back(static_cast<std::uint32_t>(t));
-  auto normal = [&](std::uint32_t t, double* n) {
-    const std::uint32_t* v = &tris[3 * std::size_t(t)];
-    double u[3], w[3];
-    for (int d = 0; d < 3; ++d) {
-      u[d] = pts[3 * v[1] + d] - pts[3 * v[0] + d];
-      w[d] = pts[3 * v[2] + d] - pts[3 * v[0] + d];
-    }
-    n[0] = u[1] * w[2] - u[2] * w[1];
-    n[1] = u[2] * w[0] - u[0] * w[2];
-    n[2] = u[0] * w[1] - u[1] * w[0];
-    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    for (int d = 0; d < 3; ++d) n[d] /= l > 0 ? l : 1;
-  };
+  auto normal = [&](std::uint32_t t, double* n) { unit_normal(pts, &tris[3 * std::size_t(t)], n); };
   for (std::uint32_t v = first; v < nv; ++v) {
     const std::vector<std::uint32_t>& around = star[v - first];
     std::vector<int> faces;
