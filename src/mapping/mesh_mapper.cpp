@@ -394,10 +394,21 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     src_anchor_of_all.push_back(vertex_at(ss, a.source, src_tol));
     can_anchor_of_all.push_back(vertex_at(cs, a.canonical, can_tol));
   }
-  // Both sides' paths between the same anchors must run alike (paths_run_alike).
-  auto paths_alike = [&](const std::vector<std::uint32_t>& chain_s,
-                         const std::vector<std::uint32_t>& chain_c) {
-    return paths_run_alike(ss, chain_s, cs, chain_c);
+  // Whether the layouts with these cuts (and the anchors as they are now) have the same patch
+  // keys on both sides: what every candidate split or slit below must keep.
+  auto layouts_agree = [&](const std::vector<char>& try_src, const std::vector<char>& try_can) {
+    std::vector<Patch> tsp, tcp;
+    std::string ignored;
+    if (!build_patches(ss, try_src, src_anchor, src_tol, true, tsp, ignored) ||
+        !build_patches(cs, try_can, can_anchor, can_tol, true, tcp, ignored) ||
+        tsp.size() != tcp.size())
+      return false;
+    std::vector<std::vector<int>> ks, kc;
+    for (const Patch& q : tsp) ks.push_back(q.key());
+    for (const Patch& q : tcp) kc.push_back(q.key());
+    std::sort(ks.begin(), ks.end());
+    std::sort(kc.begin(), kc.end());
+    return ks == kc;
   };
   std::vector<Patch> sp, cp;
   for (int round = 0;; ++round) {
@@ -550,20 +561,8 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             }
           }
           for (std::size_t k = 0; ok && k < paths.size(); ++k)
-            ok = paths_alike(try_traced[0][k], try_traced[1][k]);
-          if (!ok) return false;
-          std::vector<Patch> tsp, tcp;
-          std::string ignored;
-          if (!build_patches(ss, try_cuts[0], src_anchor, src_tol, true, tsp, ignored) ||
-              !build_patches(cs, try_cuts[1], can_anchor, can_tol, true, tcp, ignored) ||
-              tsp.size() != tcp.size())
-            return false;
-          std::vector<std::vector<int>> ks, kc;
-          for (const Patch& q : tsp) ks.push_back(q.key());
-          for (const Patch& q : tcp) kc.push_back(q.key());
-          std::sort(ks.begin(), ks.end());
-          std::sort(kc.begin(), kc.end());
-          if (ks != kc) return false;
+            ok = paths_run_alike(ss, try_traced[0][k], cs, try_traced[1][k]);
+          if (!ok || !layouts_agree(try_cuts[0], try_cuts[1])) return false;
           src_cuts = std::move(try_cuts[0]);
           can_cuts = std::move(try_cuts[1]);
           for (auto& ch : try_traced[0]) src_traced.push_back(std::move(ch));
@@ -644,9 +643,9 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
         // anchor, on each side, which becomes a new anchor (a Steiner point of the layout, as
         // Kraevoy and Sheffer add): on a coarse mesh the hole may be one triangle row from the
         // loop, so that no path between two anchors avoids touching a loop. The canonical side
-        // picks the vertex; the source side the nearest vertex between the same two anchors of the
-        // same loop, so the new anchor lies on the same CAD path on both sides and the neighbouring
-        // patch gets it too.
+        // picks the vertex; the source side the vertex between the same two anchors of the same
+        // loop at the same fraction of the arc length (below), so the new anchor lies on the same
+        // CAD path on both sides and the neighbouring patch gets it too.
         if (!split) {
           const Patch& s = sp[sidx];
           auto occurs_once = [](const std::vector<std::uint32_t>& loop, std::uint32_t v) {
@@ -746,13 +745,13 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
                   best = std::fabs(f - want);
                   pick = v;
                 }
-              if (want >= 0 && best < std::numeric_limits<double>::infinity()) target[pick] = 1;
+              if (!at_follow.empty()) target[pick] = 1;
               chain[follow] = shortest_path_to_any(
                   *surf[follow], *cuts[follow], static_cast<std::uint32_t>(vb[follow]),
                   want >= 0 ? target : allowed, *of[follow], patch[follow]);
-              // The two slits must be alike (paths_alike).
+              // The two slits must run alike.
               if (chain[follow].size() >= 2) {
-                if (paths_alike(chain[0], chain[1])) break;
+                if (paths_run_alike(ss, chain[0], cs, chain[1])) break;
                 chain[follow].clear();
               }
             }
@@ -780,20 +779,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             std::vector<char> try_src = src_cuts, try_can = can_cuts;
             cut_along(ss, chain_s, try_src);
             cut_along(cs, chain_c, try_can);
-            std::vector<Patch> tsp, tcp;
-            std::string ignored;
-            bool same = build_patches(ss, try_src, src_anchor, src_tol, true, tsp, ignored) &&
-                        build_patches(cs, try_can, can_anchor, can_tol, true, tcp, ignored) &&
-                        tsp.size() == tcp.size();
-            if (same) {
-              std::vector<std::vector<int>> ks, kc;
-              for (const Patch& q : tsp) ks.push_back(q.key());
-              for (const Patch& q : tcp) kc.push_back(q.key());
-              std::sort(ks.begin(), ks.end());
-              std::sort(kc.begin(), kc.end());
-              same = ks == kc;
-            }
-            if (!same) {
+            if (!layouts_agree(try_src, try_can)) {
               corr.anchors.pop_back();
               refresh();
               continue;
@@ -1019,9 +1005,8 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       // vertices of folded triangles go back to their composed place, repeatedly while that
       // leaves fewer folds; the result is kept when it folds less, or as little and lies nearer.
       const std::size_t folds_composed = folded(composed).size();
-      for (int round = 0; round < 20; ++round) {
-        const std::vector<std::size_t> f = folded(relaxed);
-        if (f.size() <= folds_composed) break;
+      std::vector<std::size_t> f = folded(relaxed);
+      for (int round = 0; round < 20 && f.size() > folds_composed; ++round) {
         bool changed = false;
         for (std::size_t t : f)
           for (std::size_t k = 0; k < 3; ++k) {
@@ -1034,8 +1019,9 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             changed = true;
           }
         if (!changed) break;
+        f = folded(relaxed);
       }
-      const std::size_t folds_relaxed = folded(relaxed).size();
+      const std::size_t folds_relaxed = f.size();
       if (folds_relaxed < folds_composed ||
           (folds_relaxed == folds_composed && gap(relaxed) < gap(composed))) {
         for (std::size_t l : inner) where[cd.vertices[l]] = relaxed[l];
