@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <map>
 #include <set>
@@ -127,7 +128,7 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     }
     return -1;
   };
-  // Edges inside a face; a path is a seam only when every segment of it is one of them (a
+  // Edges inside a face; a CAD edge is a seam only when every piece of it runs along them (a
   // partial cut would leave a slit with a loop of its own).
   using Edge = std::pair<std::uint32_t, std::uint32_t>;
   std::set<Edge> inner;
@@ -142,24 +143,31 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     inner_next[e.first].push_back(e.second);
     inner_next[e.second].push_back(e.first);
   }
-  // The mesh edges of the polyline segment u -> v: the edge itself, or a chain of inner edges
-  // through vertices on the segment, each nearer v (a host may split a segment after emitting
-  // the path: the OpenCASCADE host bisects long or skinny surface triangles, seams included).
-  auto segment_edges = [&](std::uint32_t u, std::uint32_t v, std::vector<Edge>& out) {
+  // The mesh edges along the polyline piece `piece` (nodes, 3 doubles each) from vertex u to
+  // vertex v: the edge itself, or a chain of inner edges through vertices on the piece, each
+  // nearer v (a host may split a segment after emitting the path: the OpenCASCADE host bisects
+  // long or skinny surface triangles, seams included).
+  auto piece_edges = [&](std::uint32_t u, std::uint32_t v, const std::vector<const double*>& piece,
+                         std::vector<Edge>& out) {
     const double* b = &m.vertices[3 * std::size_t(v)];
     auto to_v = [&](std::uint32_t w) {
       const double* p = &m.vertices[3 * std::size_t(w)];
       return std::hypot(p[0] - b[0], p[1] - b[1], p[2] - b[2]);
     };
-    const double* a = &m.vertices[3 * std::size_t(u)];
+    auto on_piece = [&](std::uint32_t w) {
+      for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
+        double t;
+        if (point_segment_distance(&m.vertices[3 * std::size_t(w)], piece[i], piece[i + 1], t) <=
+            tolerance)
+          return true;
+      }
+      return false;
+    };
     for (std::uint32_t cur = u, steps = 0; cur != v; ++steps) {
       if (steps > 256) return false;
       std::uint32_t next = UINT32_MAX;
       for (std::uint32_t w : inner_next[cur]) {
-        double t;
-        if (w == v ||
-            (to_v(w) < to_v(cur) &&
-             point_segment_distance(&m.vertices[3 * std::size_t(w)], a, b, t) <= tolerance)) {
+        if (w == v || (to_v(w) < to_v(cur) && on_piece(w))) {
           next = w;
           if (w == v) break;
         }
@@ -170,22 +178,69 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     }
     return true;
   };
+  // A seam is cut as a whole CAD edge: its paths (one per pair of consecutive edge samples, all
+  // with the edge's key) chained end to end. A path end need not be a mesh vertex (an edge sample
+  // the mesher did not keep: the OpenCASCADE hub's rim seam, coarsely meshed, has a vertex at
+  // its midpoint in one sample and not in another), so the chained nodes that are vertices are
+  // joined through the polyline between them; only the edge's own ends must be vertices.
+  auto same = [&](const double* p, const double* q) {
+    return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= tolerance;
+  };
+  std::map<Id, std::vector<std::size_t>> paths_of_edge;
+  for (std::size_t q = 0; q < m.paths.size() && !inner.empty(); ++q)
+    if (common_edges.count(keys[q]) && m.paths[q].polyline.size() >= 6)
+      paths_of_edge[keys[q]].push_back(q);
   std::set<Edge> seam;
-  for (std::size_t q = 0; q < m.paths.size() && !inner.empty(); ++q) {
-    if (!common_edges.count(keys[q])) continue;
-    const std::vector<double>& pl = m.paths[q].polyline;
-    std::vector<Edge> mine;
-    bool whole = pl.size() >= 6;
-    std::int64_t prev = -1;
-    for (std::size_t i = 0; i + 2 < pl.size() && whole; i += 3) {
-      const std::int64_t v = vertex_near(&pl[i]);
-      if (i > 0)
-        whole =
-            v >= 0 && prev >= 0 && v != prev &&
-            segment_edges(static_cast<std::uint32_t>(prev), static_cast<std::uint32_t>(v), mine);
-      prev = v;
+  for (const auto& [key, qs] : paths_of_edge) {
+    (void)key;
+    std::vector<char> used(qs.size(), 0);
+    for (std::size_t first = 0; first < qs.size(); ++first) {
+      if (used[first]) continue;
+      // Chain: grow at either end by an unused path with an end there.
+      std::deque<const double*> chain;
+      auto nodes_of = [&](std::size_t k) {
+        const std::vector<double>& pl = m.paths[qs[k]].polyline;
+        std::vector<const double*> n;
+        for (std::size_t i = 0; i + 2 < pl.size(); i += 3) n.push_back(&pl[i]);
+        return n;
+      };
+      for (const double* p : nodes_of(first)) chain.push_back(p);
+      used[first] = 1;
+      for (bool grew = true; grew;) {
+        grew = false;
+        for (std::size_t k = 0; k < qs.size(); ++k) {
+          if (used[k]) continue;
+          std::vector<const double*> n = nodes_of(k);
+          if (!same(n.front(), chain.back()) && !same(n.back(), chain.back()) &&
+              !same(n.front(), chain.front()) && !same(n.back(), chain.front()))
+            continue;
+          const bool at_back = same(n.front(), chain.back()) || same(n.back(), chain.back());
+          const double* joint = at_back ? chain.back() : chain.front();
+          if (!same(n.front(), joint)) std::reverse(n.begin(), n.end());
+          if (at_back)
+            chain.insert(chain.end(), n.begin() + 1, n.end());
+          else
+            chain.insert(chain.begin(), n.rbegin(), n.rend() - 1);
+          used[k] = 1;
+          grew = true;
+        }
+      }
+      std::vector<Edge> mine;
+      std::int64_t prev = vertex_near(chain.front());
+      std::size_t prev_node = 0;
+      bool whole = prev >= 0 && vertex_near(chain.back()) >= 0;
+      for (std::size_t i = 1; i < chain.size() && whole; ++i) {
+        const std::int64_t v = vertex_near(chain[i]);
+        if (v < 0) continue;
+        const std::vector<const double*> piece(chain.begin() + std::ptrdiff_t(prev_node),
+                                               chain.begin() + std::ptrdiff_t(i) + 1);
+        whole = v != prev && piece_edges(static_cast<std::uint32_t>(prev),
+                                         static_cast<std::uint32_t>(v), piece, mine);
+        prev = v;
+        prev_node = i;
+      }
+      if (whole) seam.insert(mine.begin(), mine.end());
     }
-    if (whole) seam.insert(mine.begin(), mine.end());
   }
   for (int h = 0; h < H; ++h) {
     const int t = s.twin[static_cast<std::size_t>(h)];

@@ -194,14 +194,22 @@ TEST(MeshMapper, NeighbourTransferThroughASharedSample) {
   EXPECT_FALSE(bridge.apply(s_l, wrong, why));  // not in the neighbour's combinatorics
 }
 
-// A patch that is not a disk: with the four side faces given one tag, the sides form a band (a
-// disk with a hole) between the top and bottom loops. Two shortest paths between the same
-// anchors on both sides split it into disks; the mapping stays on the source's boundary.
+// A patch that is not a disk: with the four side faces given one tag and the four vertical edges
+// between them gone (as in a B-rep where the faces merged), the sides form a band (a disk with a
+// hole) between the top and bottom loops. Two shortest paths between the same anchors on both
+// sides split it into disks; the mapping stays on the source's boundary.
 TEST(MeshMapper, PatchesWithHolesAreSplitIntoDisks) {
   const Model plate("plate", "edge=4");
   auto band = [](builder::Sample s) {
     for (std::int32_t& t : s.triangle_tags)
       if (t <= 4) t = 1;
+    s.paths.erase(std::remove_if(s.paths.begin(), s.paths.end(),
+                                 [](const builder::Path& p) {
+                                   const std::size_t n = p.polyline.size();
+                                   return p.polyline[0] == p.polyline[n - 3] &&
+                                          p.polyline[1] == p.polyline[n - 2];
+                                 }),
+                  s.paths.end());
     return s;
   };
   const builder::Sample source = band(plate.at({52, 28, 7})),
@@ -657,6 +665,21 @@ void self_layout(const builder::Sample& s, std::vector<mapping::Patch>& patches)
       << why;
 }
 
+// Both walls of a tube {.., 16, 8} (tags 1 and 2) are one disk each in the sample's layout
+// against itself: cut open along their seams, the 9 seam vertices twice in the local numbering.
+void expect_walls_cut_open(const builder::Sample& s) {
+  std::vector<mapping::Patch> patches;
+  ASSERT_NO_FATAL_FAILURE(self_layout(s, patches));
+  std::size_t walls = 0;
+  for (const mapping::Patch& p : patches) {
+    if (s.triangle_tags[std::size_t(p.triangles[0])] > 2) continue;
+    ++walls;
+    EXPECT_TRUE(p.holes.empty());
+    EXPECT_EQ(p.local_vertices.size(), 16u * 9u + 9u);
+  }
+  EXPECT_EQ(walls, 2u);
+}
+
 }  // namespace tube
 
 // Fix 1 of the OpenCASCADE round: the seam of a periodic face. The tube's walls are annuli
@@ -764,20 +787,56 @@ TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
   }
   ASSERT_GT(thinned, 0u);
   ASSERT_EQ(builder::validate(source), "");
-  std::vector<mapping::Patch> patches;
-  ASSERT_NO_FATAL_FAILURE(tube::self_layout(source, patches));
-  std::size_t walls = 0;
-  for (const mapping::Patch& p : patches) {
-    if (source.triangle_tags[std::size_t(p.triangles[0])] > 2) continue;
-    ++walls;
-    EXPECT_TRUE(p.holes.empty());  // cut open along its seam, as with the whole polyline
-    EXPECT_EQ(p.local_vertices.size(), 16u * 9u + 9u);
-  }
-  EXPECT_EQ(walls, 2u);
+  // Each wall cut open along its seam, as with the whole polyline.
+  ASSERT_NO_FATAL_FAILURE(tube::expect_walls_cut_open(source));
   builder::MappedSample m;
   const builder::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
   std::string why;
   EXPECT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
+}
+
+// A path end need not be a mesh vertex: an edge sample the mesher did not keep (the OpenCASCADE
+// hub's rim seam, coarsely meshed, has a vertex at its sample in one sample of the model and not
+// in another). Each seam's sample at 1/4 is moved half a row along the seam, off every mesh
+// vertex, with the junction of its two paths; the seam, cut as a whole CAD edge through the
+// polyline between the nodes that are vertices, still opens each wall into a disk, and the
+// mapping (which drops the moved sample as an anchor) still succeeds.
+TEST(MeshMapper, SeamWhoseEdgeSampleIsNoMeshVertexStillCutsItsFace) {
+  const tube::Shape shape{1.0, 2.0, 3.0, 16, 8};
+  builder::Sample source = tube::make(shape);
+  auto straight = [](const std::vector<double>& pl) {
+    bool z_only = true;
+    for (std::size_t i = 3; i < pl.size(); i += 3)
+      z_only = z_only && pl[i] == pl[0] && pl[i + 1] == pl[1];
+    return z_only;
+  };
+  std::size_t moved = 0;
+  for (builder::Path& a : source.paths) {
+    if (!straight(a.polyline) || a.polyline[2] != 0) continue;  // a seam's first path
+    for (builder::Path& b : source.paths) {
+      if (&a == &b || !straight(b.polyline) || b.a != a.b) continue;
+      // The junction moves half a row up, towards b's next node.
+      const std::vector<double> old(a.polyline.end() - 3, a.polyline.end());
+      const double row = shape.height / shape.k;
+      ASSERT_NEAR(b.polyline[5] - old[2], row, 1e-12);
+      const std::vector<double> j{old[0], old[1], old[2] + 0.5 * row};
+      a.polyline.insert(a.polyline.end(), j.begin(), j.end());
+      std::copy(j.begin(), j.end(), b.polyline.begin());
+      for (builder::ControlPoint& cp : source.points)
+        if (cp.id == a.b) std::copy(j.begin(), j.end(), cp.position);
+      ++moved;
+    }
+  }
+  ASSERT_EQ(moved, 2u);  // the outer and the inner seam
+  ASSERT_EQ(builder::validate(source), "");
+  // Each wall cut open along its seam, as with the sample on a vertex.
+  ASSERT_NO_FATAL_FAILURE(tube::expect_walls_cut_open(source));
+  builder::MappedSample m;
+  const builder::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
+  std::string why;
+  mapping::MapStats stats;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+  EXPECT_EQ(stats.inverted, 0u);
 }
 
 // Fix 2 of the OpenCASCADE round: the interior solve in boundary increments, with the
