@@ -123,8 +123,7 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
         by_x.begin(), by_x.end(), p[0] - tolerance,
         [&](std::uint32_t v, double x) { return m.vertices[3 * std::size_t(v)] < x; });
     for (; it != by_x.end() && m.vertices[3 * std::size_t(*it)] <= p[0] + tolerance; ++it) {
-      const double* q = &m.vertices[3 * std::size_t(*it)];
-      if (std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= tolerance) return *it;
+      if (distance(p, &m.vertices[3 * std::size_t(*it)]) <= tolerance) return *it;
     }
     return -1;
   };
@@ -150,10 +149,7 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
   auto piece_edges = [&](std::uint32_t u, std::uint32_t v, const std::vector<const double*>& piece,
                          std::vector<Edge>& out) {
     const double* b = &m.vertices[3 * std::size_t(v)];
-    auto to_v = [&](std::uint32_t w) {
-      const double* p = &m.vertices[3 * std::size_t(w)];
-      return std::hypot(p[0] - b[0], p[1] - b[1], p[2] - b[2]);
-    };
+    auto to_v = [&](std::uint32_t w) { return distance(&m.vertices[3 * std::size_t(w)], b); };
     auto on_piece = [&](std::uint32_t w) {
       for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
         double t;
@@ -183,9 +179,7 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
   // the mesher did not keep: the OpenCASCADE hub's rim seam, coarsely meshed, has a vertex at
   // its midpoint in one sample and not in another), so the chained nodes that are vertices are
   // joined through the polyline between them; only the edge's own ends must be vertices.
-  auto same = [&](const double* p, const double* q) {
-    return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= tolerance;
-  };
+  auto same = [&](const double* p, const double* q) { return distance(p, q) <= tolerance; };
   std::map<Id, std::vector<std::size_t>> paths_of_edge;
   for (std::size_t q = 0; q < m.paths.size() && !inner.empty(); ++q)
     if (common_edges.count(keys[q]) && m.paths[q].polyline.size() >= 6)
@@ -263,8 +257,12 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     const double* a = s.position(s.from(h));
     const double* b = s.position(s.to(h));
     for (int k = 0; k < 3; ++k) mid[k] = 0.5 * (a[k] + b[k]);
-    // The path nearest to the edge's midpoint names the CAD edge it lies on.
-    double best = std::numeric_limits<double>::infinity();
+    // The path nearest to the edge's midpoint names the CAD edge it lies on. The edge lies on a
+    // CAD edge (its two sides are different faces), but not always on the path's polyline: a
+    // host may add mesh vertices on the curve between the polyline's nodes (the OpenCASCADE
+    // host's bisection, projected onto the B-rep), whose edges' midpoints are off the polyline's
+    // segment by up to its sag, under a tenth of its length for arcs up to 45 degrees.
+    double best = std::numeric_limits<double>::infinity(), best_length = 0;
     std::size_t best_path = m.paths.size();
     for (std::size_t q = 0; q < m.paths.size(); ++q) {
       const std::vector<double>& pl = m.paths[q].polyline;
@@ -274,11 +272,13 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
         if (d < best) {
           best = d;
           best_path = q;
+          best_length = distance(&pl[i], &pl[i + 3]);
         }
       }
     }
-    const bool on_unshared_edge =
-        best_path < m.paths.size() && best <= tolerance && !common_edges.count(keys[best_path]);
+    const bool on_unshared_edge = best_path < m.paths.size() &&
+                                  best <= tolerance + 0.1 * best_length &&
+                                  !common_edges.count(keys[best_path]);
     cut[static_cast<std::size_t>(h)] = on_unshared_edge ? 0 : 1;
   }
   return cut;

@@ -12,11 +12,6 @@ namespace cadinterp::mapping {
 
 namespace {
 
-double distance(const double* a, const double* b) {
-  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
-                   (a[2] - b[2]) * (a[2] - b[2]));
-}
-
 // Edges of `mine` whose key the other sample lacks, with their vertex ends.
 void collect(const builder::Sample& mine, const std::set<Id>& common, bool in_source,
              const Correspondence& corr, double tolerance, std::vector<OneSidedEdge>& out) {

@@ -20,11 +20,6 @@ int find_root(std::vector<int>& parent, int x) {
   return x;
 }
 
-double distance(const double* a, const double* b) {
-  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
-                   (a[2] - b[2]) * (a[2] - b[2]));
-}
-
 std::string describe(const Patch& p, const Surface& s) {
   return "patch of " + std::to_string(p.triangles.size()) + " triangles (face tag " +
          std::to_string(s.sample->triangle_tags[static_cast<std::size_t>(p.triangles[0])]) + ")";

@@ -1,5 +1,6 @@
 #include "mapping/surface.h"
 
+#include <cmath>
 #include <unordered_map>
 
 namespace cadinterp::mapping {
@@ -24,6 +25,11 @@ bool build_surface(const builder::Sample& s, Surface& out, std::string& why) {
     if (it != directed.end()) out.twin[static_cast<std::size_t>(h)] = it->second;
   }
   return true;
+}
+
+double distance(const double* a, const double* b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                   (a[2] - b[2]) * (a[2] - b[2]));
 }
 
 }  // namespace cadinterp::mapping

@@ -36,4 +36,7 @@ struct Surface {
 /// oriented 2-manifold, and patch tracing relies on it.
 bool build_surface(const builder::Sample& s, Surface& out, std::string& why);
 
+/// Euclidean distance of two points (3 doubles each).
+double distance(const double* a, const double* b);
+
 }  // namespace cadinterp::mapping
