@@ -28,6 +28,8 @@ PACKAGES=(
   libocct-foundation-dev            # the OpenCASCADE example host (B-rep kernel)
   libocct-modeling-data-dev
   libocct-modeling-algorithms-dev
+  libocct-visualization-dev         # ships NCollection_AliasedArray.hxx, which the foundation's
+                                    # Poly_ArrayOfNodes.hxx includes (Debian 12's split of OCCT)
   libtet1.5-dev                     # TetGen: tetrahedralization in the OpenCASCADE host
   libsuitesparse-dev                # CHOLMOD: the FEM physics' direct solver
   libcpp-httplib-dev                # `cadinterp explore`'s embedded HTTP server
