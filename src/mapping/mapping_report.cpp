@@ -30,6 +30,7 @@
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
 #include "builder/host_call.h"
+#include "builder/surface_distance.h"
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "mapping/boundary_untangle.h"
@@ -74,12 +75,21 @@ const cadinterp_host* open_library_host(const std::string& library, const std::s
   return h;
 }
 
-// True when the two samples' B-rep faces differ (the set of triangle tags): a pair across a
-// topology change.
-bool faces_differ(const builder::Sample& a, const builder::Sample& b) {
+// How two samples' B-rep topologies differ: 'T' when their faces differ (the set of triangle
+// tags: faces merged, split, appeared or gone), 'E' when only B-rep vertices differ (the control
+// points of IDs {0, ...}, whose IDs name their edges: an edge split or joined, as where the
+// press's ram bore cuts into its fillet), '-' when neither.
+char topology_change(const builder::Sample& a, const builder::Sample& b) {
   const std::set<std::int32_t> fa(a.triangle_tags.begin(), a.triangle_tags.end());
   const std::set<std::int32_t> fb(b.triangle_tags.begin(), b.triangle_tags.end());
-  return fa != fb;
+  if (fa != fb) return 'T';
+  auto vertices = [](const builder::Sample& s) {
+    std::set<std::vector<std::int64_t>> v;
+    for (const builder::ControlPoint& p : s.points)
+      if (!p.id.empty() && p.id[0] == 0) v.insert(p.id);
+    return v;
+  };
+  return vertices(a) != vertices(b) ? 'E' : '-';
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -104,6 +114,17 @@ int pairs(const std::vector<std::string>& args) {
   int only = -1;
   p.option("only", 0, "I", "map pair I (0-based) of the sequence only, to reproduce one", &only, 0,
            100000);
+  double element = 0;
+  p.option("element", 0, "F",
+           "pairs as the builder makes them: a random box of F times the domain's size in every "
+           "parameter (a K-d tree element F = 2^-depth across), the canonical at its centre and "
+           "the source at one of its corners (0: two independent random points)",
+           &element, 0.0, 1.0);
+  bool across = false;
+  p.flag("across", 0,
+         "map only pairs across a B-rep topology change ('T' or 'E' in the topo column), drawing "
+         "up to 200 x N random pairs until N are found",
+         &across);
   p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
   p.option("host", 0, "LIB.so",
            "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
@@ -148,25 +169,50 @@ int pairs(const std::vector<std::string>& args) {
       x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
     return x;
   };
-  std::printf("model %s (%s)%s%s, %d random pairs\n", model.c_str(), options.c_str(),
-              analytic ? "" : " from ", analytic ? "" : library.c_str(), count);
-  std::printf("%6s %6s %4s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "V_src", "V_can", "topo",
-              "ms", "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err", "field_max",
-              "field_p99");
+  std::printf("model %s (%s)%s%s, %d random pairs%s\n", model.c_str(), options.c_str(),
+              analytic ? "" : " from ", analytic ? "" : library.c_str(), count,
+              element > 0 ? " (element corner -> centre)" : "");
+  std::printf("%5s %6s %6s %4s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "pair", "V_src", "V_can",
+              "topo", "ms", "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err",
+              "field_max", "field_p99");
   std::vector<double> haus, haus99, area, field, field99, times, sizes_v;
   double min_sj = 1;
-  std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, infeasible = 0;
-  for (int i = 0; i < count; ++i) {
-    const std::vector<double> xa = random_x(), xc = random_x();
+  std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, edges_only = 0, infeasible = 0;
+  int found = 0;
+  for (int i = 0; across ? found < count && i < 200 * count : i < count; ++i) {
+    std::vector<double> xa = random_x(), xc = random_x();
+    if (element > 0) {
+      // xa picks the box's position, xc's coordinates the corner (below or above the centre).
+      for (std::size_t d = 0; d < xa.size(); ++d) {
+        const double lo = host.lower()[d], hi = host.upper()[d], half = 0.5 * element * (hi - lo);
+        const double centre = lo + half + (xa[d] - lo) * (1 - element);
+        const bool upper = xc[d] > 0.5 * (lo + hi);
+        xc[d] = centre;
+        xa[d] = centre + (upper ? half : -half);
+      }
+    }
     if (only >= 0 && i != only) continue;
+    if (only >= 0) {
+      auto print_x = [&](const char* name, const std::vector<double>& x) {
+        std::printf("%s x =", name);
+        for (std::size_t d = 0; d < x.size(); ++d)
+          std::printf(" %s=%.6g", host.names()[d].c_str(), x[d]);
+        std::printf("\n");
+      };
+      print_x("source", xa);
+      print_x("canonical", xc);
+    }
     const builder::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
     if (!a.feasible || !c.feasible) {
       ++infeasible;
       continue;
     }
+    const char topo = topology_change(a, c);
+    if (across && topo == '-') continue;
     differing += builder::same_combinatorics(a, c) ? 0 : 1;
-    const bool topo = faces_differ(a, c);
-    topology += topo ? 1 : 0;
+    ++found;
+    topology += topo == 'T' ? 1 : 0;
+    edges_only += topo == 'E' ? 1 : 0;
     builder::MappedSample m;
     std::string why;
     const auto t0 = Clock::now();
@@ -174,8 +220,8 @@ int pairs(const std::vector<std::string>& args) {
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (!ok) {
       ++failed;
-      std::printf("%6zu %6zu %4s %8.2f FAILED: %s\n", a.vertex_count(), c.vertex_count(),
-                  topo ? "T" : "-", ms, why.c_str());
+      std::printf("%5d %6zu %6zu %4c %8.2f FAILED: %s\n", i, a.vertex_count(), c.vertex_count(),
+                  topo, ms, why.c_str());
       continue;
     }
     const mapping::PairQuality q = mapping::measure_pair(
@@ -191,10 +237,9 @@ int pairs(const std::vector<std::string>& args) {
       std::snprintf(fmax, sizeof fmax, "%.2e", q.field_max);
       std::snprintf(f99, sizeof f99, "%.2e", q.field_p99);
     }
-    std::printf("%6zu %6zu %4s %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n",
-                a.vertex_count(), c.vertex_count(), topo ? "T" : "-", ms, q.hausdorff_max,
-                q.hausdorff_p99, q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax,
-                f99);
+    std::printf("%5d %6zu %6zu %4c %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n", i,
+                a.vertex_count(), c.vertex_count(), topo, ms, q.hausdorff_max, q.hausdorff_p99,
+                q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax, f99);
     times.push_back(ms);
     sizes_v.push_back(static_cast<double>(c.vertex_count()));
     haus.push_back(q.hausdorff_max);
@@ -209,12 +254,13 @@ int pairs(const std::vector<std::string>& args) {
     return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
   };
   std::printf(
-      "summary: %zu mapped (%zu with differing combinatorics, %zu across a B-rep face change), "
-      "%zu failed, %zu pairs skipped (a sample infeasible); Hausdorff max %.2e, "
+      "summary: %zu mapped (%zu with differing combinatorics, %zu across a B-rep face change, %zu "
+      "across an edge or vertex change only), %zu failed, %zu pairs skipped (a sample "
+      "infeasible); Hausdorff max %.2e, "
       "p99 over pairs of per-pair p99 %.2e (target 1e-3); min scaled Jacobian %.3f; inverted %zu;"
       " region area error max %.2e (target 1e-2); ",
-      haus.size(), differing, topology, failed, infeasible, mx(haus), percentile(haus99, 0.99),
-      min_sj, inverted, mx(area));
+      haus.size(), differing, topology, edges_only, failed, infeasible, mx(haus),
+      percentile(haus99, 0.99), min_sj, inverted, mx(area));
   if (am)
     std::printf("field error max %.2e, p99 %.2e\n", mx(field), percentile(field99, 0.99));
   else
@@ -326,25 +372,38 @@ int cubic(const std::vector<std::string>& args) {
 }
 
 int sweep(const std::vector<std::string>& args) {
-  std::string model = "plate", options = "edge=5", out_dir;
-  int parameter = 0, steps = 24, samples = 120;
+  std::string model = "plate", options = "edge=5", out_dir, library, host_options;
+  int parameter = 0, steps = 24, samples = 120, threads = 1;
   cli::ArgParser p("cadinterp-mapping-report sweep", "",
-                   "Builds an asset of an analytic model with the mesh mapper, then writes "
-                   "OUT/sweep_NNN.vtu sweeping one parameter from its lower to its upper bound "
-                   "(others at the centre of the box), across several elements.");
-  p.option("model", 'm', "NAME", "analytic model", &model);
-  p.option("options", 'o', "K=V,...", "the model's options", &options);
+                   "Builds an asset with the mesh mapper, then writes OUT/sweep_NNN.vtu sweeping "
+                   "one parameter from its lower to its upper bound (others at the centre of "
+                   "the box), across several elements. Prints, per frame, its element and how far "
+                   "its surface lies from the previous frame's (symmetric Hausdorff over the "
+                   "bbox diagonal): a smooth sweep moves by about the same amount each step, a "
+                   "jump or flicker shows as a spike.");
+  p.option("model", 'm', "NAME", "model (analytic, or of --host)", &model);
+  p.option("options", 'o', "K=V,...", "the analytic model's options", &options);
+  p.option("host", 0, "LIB.so",
+           "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
+           &library);
+  p.option("host-options", 0, "STRING",
+           "the model's options for --host (e.g. the OpenCASCADE host's vary=NAME builds over "
+           "that parameter alone)",
+           &host_options);
   p.option("parameter", 'p', "D", "the parameter to sweep (index)", &parameter, 0, 63);
   p.option("steps", 'n', "N", "frames", &steps, 2, 10000);
   p.option("samples", 0, "N", "the build's sample budget", &samples, 2, 100000);
+  p.option("threads", 0, "N", "the build's host threads", &threads, 1, 256);
   p.option("out", 0, "DIR", "output directory", &out_dir).required();
   if (!p.parse(args)) return 0;
-  const cadinterp_host* h = open_host(model, options);
+  const cadinterp_host* h =
+      library.empty() ? open_host(model, options) : open_library_host(library, model, host_options);
   std::filesystem::create_directories(out_dir);
   const std::string asset_path = out_dir + "/sweep.cadi";
   cadinterp_build_options o;
   cadinterp_build_options_init(&o);
   o.max_samples = samples;
+  o.threads = threads;
   const builder::BuildOutcome r = builder::build_asset(*h, o, asset_path);
   if (r.status != CADINTERP_OK) throw std::runtime_error("build failed: " + r.error);
   std::printf("built %s: %d samples, %d elements (%d infeasible)\n", asset_path.c_str(),
@@ -366,14 +425,17 @@ int sweep(const std::vector<std::string>& args) {
   }
   std::vector<int> fields;
   for (int f = 0; f < cadinterp_field_count(asset); ++f) fields.push_back(f);
-  std::vector<float> previous;
+  std::vector<double> previous;
+  std::vector<std::uint32_t> previous_triangles;
+  std::vector<double> moves;
   for (int i = 0; i < steps; ++i) {
     const auto d = static_cast<std::size_t>(parameter);
     x[d] = lo[d] + (hi[d] - lo[d]) * i / (steps - 1);
     cadinterp_mesh m;
     if (cadinterp_eval(ws, x.data(), fields.data(), static_cast<int>(fields.size()), &m) !=
         CADINTERP_OK) {
-      std::printf("step %d: %s\n", i, cadinterp_workspace_error(ws));
+      std::printf("step %3d x[%d]=%-10.4g %s\n", i, parameter, x[d], cadinterp_workspace_error(ws));
+      previous.clear();
       continue;
     }
     cli::ExportMesh em =
@@ -382,16 +444,33 @@ int sweep(const std::vector<std::string>& args) {
     char name[64];
     std::snprintf(name, sizeof name, "/sweep_%03d.vtu", i);
     cli::write_vtu(out_dir + name, em, cli::VtuEncoding::Base64);
-    // Largest vertex move from the previous frame where the mesh is the same (a jump shows).
+    std::vector<double> now(m.positions, m.positions + 3 * std::size_t(m.vertex_count));
+    std::vector<std::uint32_t> triangles(m.triangles,
+                                         m.triangles + 3 * std::size_t(m.triangle_count));
     double move = -1;
-    if (previous.size() == 3 * std::size_t(m.vertex_count)) {
-      move = 0;
-      for (std::size_t v = 0; v < previous.size(); ++v)
-        move = std::max(move, std::abs(static_cast<double>(previous[v] - m.positions[v])));
+    if (!previous.empty()) {
+      double lo3[3] = {1e300, 1e300, 1e300}, hi3[3] = {-1e300, -1e300, -1e300};
+      for (std::size_t v = 0; v < now.size(); ++v) {
+        lo3[v % 3] = std::min(lo3[v % 3], now[v]);
+        hi3[v % 3] = std::max(hi3[v % 3], now[v]);
+      }
+      const double diag = std::hypot(hi3[0] - lo3[0], hi3[1] - lo3[1], hi3[2] - lo3[2]);
+      move = builder::symmetric_hausdorff(previous, previous_triangles, now, triangles) / diag;
+      moves.push_back(move);
     }
-    previous.assign(m.positions, m.positions + 3 * std::size_t(m.vertex_count));
-    std::printf("step %3d x[%d]=%-10.4g V=%-6u max vertex move %s\n", i, parameter, x[d],
-                m.vertex_count, move < 0 ? "(new mesh)" : std::to_string(move).c_str());
+    previous = std::move(now);
+    previous_triangles = std::move(triangles);
+    char moved[32] = "(first)";
+    if (move >= 0) std::snprintf(moved, sizeof moved, "%.3e", move);
+    std::printf("step %3d x[%d]=%-10.4g element %-5d V=%-6u surface move %s\n", i, parameter, x[d],
+                m.element, m.vertex_count, moved);
+  }
+  if (!moves.empty()) {
+    std::vector<double> sorted = moves;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("surface move per step: median %.3e, max %.3e (%.1fx the median)\n",
+                sorted[sorted.size() / 2], sorted.back(),
+                sorted.back() / std::max(sorted[sorted.size() / 2], 1e-300));
   }
   cadinterp_workspace_destroy(ws);
   cadinterp_close(asset);
@@ -479,6 +558,8 @@ int meshes(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A row per pair as it is mapped (runs on the OpenCASCADE models take minutes).
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const std::vector<std::string> args(argv + std::min(argc, 2), argv + argc);
   const std::string command = argc > 1 ? argv[1] : "";
   try {
