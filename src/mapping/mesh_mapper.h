@@ -73,8 +73,9 @@ class MeshMapper final : public builder::Mapper {
            builder::MappedSample& out, std::string& why) const override {
     return map_sample(source, canonical, out, why, nullptr);
   }
-  // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface.
-  const char* name() const override { return "mesh-v2"; }
+  // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface. v3: faces
+  // merged across a topology change separated again.
+  const char* name() const override { return "mesh-v3"; }
 };
 
 }  // namespace cadinterp::mapping

@@ -33,7 +33,34 @@ std::vector<int> Patch::key() const {
     k.push_back(-1);
     k.insert(k.end(), l.anchors.begin(), l.anchors.end());
   }
+  if (genus > 0) {
+    k.push_back(-2);
+    k.push_back(genus);
+  }
   return k;
+}
+
+std::size_t separate_faces(const Surface& s, const std::vector<Patch>& patches,
+                           const std::vector<std::int32_t>& group, std::vector<char>& cuts) {
+  const std::vector<std::int32_t>& tags = s.sample->triangle_tags;
+  auto in_group = [&](int f) {
+    return std::binary_search(group.begin(), group.end(), tags[static_cast<std::size_t>(f)]);
+  };
+  std::size_t cut = 0;
+  for (const Patch& p : patches) {
+    const std::int32_t first = tags[static_cast<std::size_t>(p.triangles[0])];
+    if (std::all_of(p.triangles.begin(), p.triangles.end(),
+                    [&](int f) { return tags[static_cast<std::size_t>(f)] == first; }))
+      continue;
+    for (int f : p.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const int h = 3 * f + k, t = s.twin[static_cast<std::size_t>(h)];
+        if (t < 0 || cuts[static_cast<std::size_t>(h)] || in_group(f) == in_group(t / 3)) continue;
+        cuts[static_cast<std::size_t>(h)] = cuts[static_cast<std::size_t>(t)] = 1;
+        ++cut;
+      }
+  }
+  return cut;
 }
 
 std::vector<int> patch_of_triangles(const Surface& s, const std::vector<Patch>& patches) {
@@ -208,7 +235,7 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
         l.local.push_back(v);
         v = local_of(next(it->second));
       } while (v != start);
-      if (!measure_loop(s, anchor_positions, tolerance, l)) {
+      if (!measure_loop(s, anchor_positions, tolerance, l) && !allow_holes) {
         why = describe(p, s) + " has a boundary loop without matched control point";
         return false;
       }
@@ -217,14 +244,20 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
     const long T = static_cast<long>(p.triangles.size());
     const long euler = static_cast<long>(local_count) - (3 * T + border) / 2 + T;
     const long disk_with_holes = 2 - static_cast<long>(loops.size());
-    if (euler != disk_with_holes || (loops.size() > 1 && !allow_holes)) {
+    if (!allow_holes && (euler != disk_with_holes || loops.size() > 1)) {
       why = describe(p, s) + " is not a disk (Euler characteristic " + std::to_string(euler) +
             ", " + std::to_string(loops.size()) + " boundary loops)" +
             (euler != disk_with_holes ? "; patches with handles are not supported" : "");
       return false;
     }
-    std::sort(loops.begin(), loops.end(),
-              [](const Loop& a, const Loop& b) { return a.anchors[0] < b.anchors[0]; });
+    // Euler characteristic 2 - 2 genus - loops (an orientable surface: the boundary is).
+    p.genus = static_cast<int>((disk_with_holes - euler) / 2);
+    // Loops with anchors first, by their smallest; loops without, by their smallest local
+    // vertex (their traced start): deterministic, not comparable across the samples.
+    std::sort(loops.begin(), loops.end(), [](const Loop& a, const Loop& b) {
+      if (a.anchors.empty() != b.anchors.empty()) return b.anchors.empty();
+      return a.anchors.empty() ? a.local[0] < b.local[0] : a.anchors[0] < b.anchors[0];
+    });
     p.loop = std::move(loops[0].vertices);
     p.loop_local = std::move(loops[0].local);
     p.loop_s = std::move(loops[0].s);

@@ -32,7 +32,11 @@ struct Patch {
   std::vector<int> anchors;         ///< as Loop::anchors
   std::vector<double> anchor_s;     ///< as Loop::anchor_s
   std::vector<Loop> holes;          ///< further loops (build_patches with allow_holes), ordered
-                                    ///< by their smallest anchor
+                                    ///< by their smallest anchor; loops without any anchor last
+  /// Handles (build_patches with allow_holes): 0 for a sphere with holes. Faces merged across a
+  /// topology change can join two faces by several tubes (the OpenCASCADE hub's flange: floor
+  /// and bottom joined by the walls of bolt holes whose shape changed), see separate_faces.
+  int genus = 0;
   /// The patch cut open along every cut inside it (a periodic face's seam): a surface vertex
   /// on such a cut has one local copy per side. `local_vertices[l]` is local vertex l's surface
   /// vertex, `corner_local` the local vertex of each triangle corner (3 per `triangles` entry,
@@ -49,11 +53,19 @@ struct Patch {
 /// between its two circles) is part of that patch's boundary, which then runs along it twice,
 /// once per side, with the seam's vertices duplicated in the patch's local numbering. Fails
 /// when a patch has a pinched boundary (after that cutting), a loop without anchor, or is not a
-/// disk: with `allow_holes`, a sphere with holes (Euler characteristic 2 - loops) is accepted and
-/// its loops other than the first go to `holes`, for the caller to cut (§6.2's subdivision).
+/// disk: with `allow_holes`, any bordered surface is accepted (its handles in `genus`), its loops
+/// other than the first go to `holes`, for the caller to cut (§6.2's subdivision), and loops
+/// without anchor are holes too (the first loop has anchors whenever any loop has).
 bool build_patches(const Surface& s, const std::vector<char>& cuts,
                    const std::vector<const double*>& anchor_positions, double tolerance,
                    bool allow_holes, std::vector<Patch>& out, std::string& why);
+
+/// Cuts, inside every patch whose triangles carry more than one face tag, the border between
+/// the triangles whose tag is in `group` (sorted) and the others: faces merged across CAD edges
+/// of one side only (layout_cuts), separated again (mesh_mapper.cpp, which keeps such a cut only
+/// where both samples' layouts still agree). Returns the edges cut.
+std::size_t separate_faces(const Surface& s, const std::vector<Patch>& patches,
+                           const std::vector<std::int32_t>& group, std::vector<char>& cuts);
 
 /// Per triangle of the surface, the index of its patch.
 std::vector<int> patch_of_triangles(const Surface& s, const std::vector<Patch>& patches);
