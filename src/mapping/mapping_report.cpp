@@ -148,8 +148,13 @@ int pairs(const std::vector<std::string>& args) {
            "Phong shape factor of the source reconstruction the boundary is placed on (0: the "
            "flat source triangles)",
            &mo.smooth_alpha, 0.0, 1.0);
+  int geodesic = 1;
+  p.option("geodesic", 0, "0|1",
+           "measure traced layout paths along their geodesics (1) or their mesh edges (0)",
+           &geodesic, 0, 1);
   if (!p.parse(args)) return 0;
   mo.stiffening = stiffen;
+  mo.geodesic_paths = geodesic != 0;
   for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;
 
   // Field truth in closed form exists for the analytic host only; another host's fields are

@@ -19,6 +19,7 @@
 #include "builder/surface_distance.h"
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
+#include "mapping/geodesic.h"
 #include "mapping/interior_solve.h"
 #include "mapping/layout_paths.h"
 #include "mapping/mapping_quality.h"
@@ -1259,6 +1260,50 @@ TEST(MeshMapper, HoleWallsOfOneSideOnlyAreCutOffInsteadOfMakingHandles) {
   int genus = 0;
   for (const mapping::Patch& p : patches) genus += p.genus;
   EXPECT_EQ(genus, 2);
+}
+
+// The geodesic of a traced path (geodesic.h) on the voxel plate's flat top: from corner to corner
+// the Steiner graph's path is the straight segment to within a few percent, while the shortest
+// edge path is longer by the grid's zigzag; a zigzag chain measured along the geodesic gets
+// increasing arc lengths from 0 to the geodesic's length, its corners at their projections.
+TEST(Geodesic, CorridorGeodesicOfAFlatFaceIsItsStraightSegment) {
+  const builder::Sample plate = voxel::plate(6, 4, 1, 1, {});
+  mapping::Surface surf;
+  std::string why;
+  ASSERT_TRUE(mapping::build_surface(plate, surf, why)) << why;
+  std::vector<int> top;
+  for (int f = 0; f < surf.triangles(); ++f)
+    if (plate.triangle_tags[std::size_t(f)] == 1) top.push_back(f);
+  const double a[3] = {0, 0, 1}, b[3] = {6, 4, 1};
+  const int va = mapping::vertex_at(surf, a, 1e-9), vb = mapping::vertex_at(surf, b, 1e-9);
+  ASSERT_GE(va, 0);
+  ASSERT_GE(vb, 0);
+  const auto g = mapping::corridor_geodesic(surf, top, std::uint32_t(va), std::uint32_t(vb));
+  ASSERT_GE(g.size(), 2u);
+  double length = 0;
+  for (std::size_t i = 1; i < g.size(); ++i)
+    length += std::hypot(g[i][0] - g[i - 1][0], g[i][1] - g[i - 1][1], g[i][2] - g[i - 1][2]);
+  const double straight = std::hypot(6.0, 4.0);
+  EXPECT_GE(length, straight - 1e-9);
+  EXPECT_LE(length, 1.03 * straight);
+  for (const auto& p : g) EXPECT_NEAR(p[2], 1.0, 1e-12);
+  // The shortest edge path zigzags: measured along the geodesic, its vertices get the arc
+  // length of their projections onto the segment, increasing, from 0 to the geodesic's length.
+  std::vector<char> none(3 * std::size_t(surf.triangles()), 0);
+  std::vector<int> of(std::size_t(surf.triangles()), 0);
+  const std::vector<std::uint32_t> chain =
+      mapping::shortest_path(surf, none, std::uint32_t(va), std::uint32_t(vb), &of, 0);
+  ASSERT_GE(chain.size(), 3u);
+  const std::vector<double> t = mapping::arc_length_on(surf, chain, g);
+  ASSERT_EQ(t.size(), chain.size());
+  EXPECT_EQ(t.front(), 0.0);
+  EXPECT_NEAR(t.back(), length, 1e-12);
+  for (std::size_t i = 1; i < t.size(); ++i) EXPECT_GT(t[i], t[i - 1]);
+  for (std::size_t i = 1; i + 1 < chain.size(); ++i) {
+    const double* x = surf.position(chain[i]);
+    const double along = (6 * x[0] + 4 * x[1]) / straight;  // projection onto the segment
+    EXPECT_NEAR(t[i], along * length / straight, 0.05 * straight);
+  }
 }
 
 // A thin wedge: two faces meeting at a sharp edge (the x axis) at 8 degrees, one prism of three

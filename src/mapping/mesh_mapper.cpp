@@ -14,6 +14,7 @@
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/field_transfer.h"
+#include "mapping/geodesic.h"
 #include "mapping/interior_solve.h"
 #include "mapping/layout_paths.h"
 #include "mapping/mean_value_param.h"
@@ -1018,6 +1019,12 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           std::to_string(tried) + " candidates tried)";
       return false;
     }
+  }
+  // §6.2: the traced paths refined to their geodesics once the layout is chosen: measured
+  // along them (geodesic.h).
+  if (options.geodesic_paths) {
+    measure_traced_paths_along_geodesics(ss, src_traced, sp);
+    measure_traced_paths_along_geodesics(cs, can_traced, cp);
   }
   std::vector<int> source_of;
   if (!pair_patches(sp, cp, source_of, why)) {

@@ -58,6 +58,9 @@ struct MapOptions {
   /// lie on the CAD surface as closely as the canonical's own vertices do. Where tets stay
   /// inverted, the mapping is redone on the flat triangles and kept if that succeeds.
   double smooth_alpha = 0.5;
+  /// Traced layout paths measured along their geodesics (geodesic.h) for the boundary of the
+  /// patches' disks; false: along their mesh edges.
+  bool geodesic_paths = true;
 };
 
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
@@ -74,7 +77,7 @@ class MeshMapper final : public builder::Mapper {
     return map_sample(source, canonical, out, why, nullptr);
   }
   // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface. v3: faces
-  // merged across a topology change separated again.
+  // merged across a topology change separated again, traced paths measured along geodesics.
   const char* name() const override { return "mesh-v3"; }
 };
 
