@@ -85,12 +85,15 @@ namespace {
 // Dijkstra over the half-edges of `s` (of triangles in `patch` when patch_of is given) from a to
 // the first vertex popped for which is_target holds. Vertices touched by `cuts` are blocked:
 // never passed through, entered only when they are a target, or, when touch_except is given,
-// entered (not a target, not marked in it) at 10x the cost and passed through.
+// entered (not a target, not marked in it) at 10x the cost and passed through. With `lengths`,
+// the search does not stop at a target (nor pass through it) and every vertex's path length
+// goes there (infinity where unreached).
 template <typename IsTarget>
 std::vector<std::uint32_t> dijkstra(const Surface& s, const std::vector<char>& cuts,
                                     std::uint32_t a, const IsTarget& is_target,
                                     const std::vector<int>* patch_of, int patch,
-                                    const std::vector<char>* touch_except) {
+                                    const std::vector<char>* touch_except,
+                                    std::vector<double>* lengths = nullptr) {
   const std::size_t V = s.sample->vertex_count();
   const int H = 3 * s.triangles();
   std::vector<char> blocked(V, 0);
@@ -112,6 +115,7 @@ std::vector<std::uint32_t> dijkstra(const Surface& s, const std::vector<char>& c
     queue.pop();
     if (d > dist[v]) continue;
     if (is_target(v)) {
+      if (lengths) continue;
       found = v;
       break;
     }
@@ -132,6 +136,7 @@ std::vector<std::uint32_t> dijkstra(const Surface& s, const std::vector<char>& c
       }
     }
   }
+  if (lengths) *lengths = std::move(dist);
   if (found < 0) return {};
   std::vector<std::uint32_t> chain{static_cast<std::uint32_t>(found)};
   while (chain.back() != a) chain.push_back(static_cast<std::uint32_t>(prev[chain.back()]));
@@ -147,6 +152,16 @@ std::vector<std::uint32_t> shortest_path(const Surface& s, const std::vector<cha
                                          const std::vector<char>* touch_except) {
   return dijkstra(
       s, cuts, a, [b](std::uint32_t v) { return v == b; }, patch_of, patch, touch_except);
+}
+
+std::vector<double> path_lengths_from(const Surface& s, const std::vector<char>& cuts,
+                                      std::uint32_t a, const std::vector<char>& targets,
+                                      const std::vector<int>& patch_of, int patch) {
+  std::vector<double> lengths;
+  dijkstra(
+      s, cuts, a, [a, &targets](std::uint32_t v) { return v != a && targets[v]; }, &patch_of, patch,
+      nullptr, &lengths);
+  return lengths;
 }
 
 std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vector<char>& cuts,

@@ -50,6 +50,12 @@ std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vec
                                                 std::uint32_t a, const std::vector<char>& targets,
                                                 const std::vector<int>& patch_of, int patch);
 
+/// Per surface vertex, the length of shortest_path_to_any's path from a to it (infinity where
+/// there is none): the search passes through no target, and reaches every one it can.
+std::vector<double> path_lengths_from(const Surface& s, const std::vector<char>& cuts,
+                                      std::uint32_t a, const std::vector<char>& targets,
+                                      const std::vector<int>& patch_of, int patch);
+
 /// One side of the cyclic-order check: the surface, its cuts before and after adding a layout
 /// path, the path's end vertex, and per surface vertex its anchor index (-1 for none).
 struct PathEnd {

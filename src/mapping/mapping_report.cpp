@@ -148,6 +148,9 @@ int pairs(const std::vector<std::string>& args) {
            "Phong shape factor of the source reconstruction the boundary is placed on (0: the "
            "flat source triangles)",
            &mo.smooth_alpha, 0.0, 1.0);
+  p.option("subdivide", 0, "R",
+           "subdivide patches by paths shorter than R times the way round their loop (0: none)",
+           &mo.subdivide_ratio, 0.0, 1.0);
   int geodesic = 1;
   p.option("geodesic", 0, "0|1",
            "measure traced layout paths along their geodesics (1) or their mesh edges (0)",

@@ -140,6 +140,31 @@ TEST(MeshMapper, PlatePairsAcrossResolutionsMeetTheQualityTargets) {
   EXPECT_EQ(pairs, 20);
 }
 
+// §6.2's subdivision of large patches (MapOptions::subdivide_ratio, off by default): the plate's
+// long faces carry edge samples on both long sides, whose straight path across is a small
+// fraction of the way round the face's loop between them, so paths are added there; the faces
+// are flat, so the mapping stays exact, and no tet inverts.
+TEST(MeshMapper, LargePatchesAreSubdividedWhereAPathAcrossIsMuchShorter) {
+  const Model plate("plate", "edge=5");
+  mapping::MapOptions options;
+  options.subdivide_ratio = 0.3;
+  const builder::Sample source = plate.at({100, 30, 4}), canonical = plate.at({90, 40, 6});
+  builder::MappedSample m;
+  std::string why;
+  mapping::MapStats with, without;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &with, options)) << why;
+  EXPECT_GT(with.subdivided, 0u);
+  const mapping::PairQuality q =
+      mapping::measure_pair(source, canonical, m, plate.truth({100, 30, 4}));
+  EXPECT_LT(q.hausdorff_max, 1e-9);
+  EXPECT_EQ(q.inverted, 0u);
+  EXPECT_LT(q.field_max, 5e-2);
+  builder::MappedSample plain;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, plain, why, &without)) << why;
+  EXPECT_EQ(without.subdivided, 0u);
+  EXPECT_EQ(with.patches, without.patches + with.subdivided);
+}
+
 // Across a B-rep topology change (the foldplate's top face splits along a crease at fold > 0)
 // and across resolutions, both ways: the crease is a layout path on the folded side and a
 // shortest path between the same anchors on the flat side, so the boundary stays exact.

@@ -1020,6 +1020,111 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       return false;
     }
   }
+  // §6.2, last: "more edges are added to further subdivide large patches for better
+  // parametrization ... only if the shortest path length is significantly smaller than the path
+  // that connects these two points on the patch layout" (Kraevoy and Sheffer's criterion: a
+  // disk whose loop runs far round between two anchors that lie near each other across it is
+  // folded, and its mean-value map squeezes the part beyond the narrows). Candidates: pairs of
+  // anchors on one canonical patch's loop, not neighbours on it, whose shortest path inside the
+  // patch is under MapOptions::subdivide_ratio of the shorter way round the loop between them;
+  // the lowest ratio first. Each is traced on both sides in the patch that still holds both
+  // anchors, and kept when the two paths run alike and the layouts still agree.
+  std::size_t subdivided = 0;
+  if (options.subdivide_ratio > 0) {
+    struct Candidate {
+      double ratio;
+      int a, b;
+    };
+    std::vector<Candidate> candidates;
+    {
+      const std::vector<int> can_of = patch_of_triangles(cs, cp);
+      for (std::size_t pi = 0; pi < cp.size(); ++pi) {
+        const Patch& c = cp[pi];
+        const double L = c.loop_s.back();
+        // Anchor occurrences at vertices the loop passes once, in loop order.
+        std::vector<std::pair<int, double>> at;
+        for (std::size_t k = 0; k < c.anchors.size(); ++k) {
+          const int v = can_anchor_of_all[static_cast<std::size_t>(c.anchors[k])];
+          if (v >= 0 && occurs_once(c.loop, static_cast<std::uint32_t>(v)) &&
+              (at.empty() || at.back().first != c.anchors[k]))
+            at.emplace_back(c.anchors[k], c.anchor_s[k]);
+        }
+        if (at.size() < 4) continue;
+        std::vector<char> targets(cs.sample->vertex_count(), 0);
+        for (const auto& [m, arc] : at) {
+          (void)arc;
+          targets[static_cast<std::size_t>(can_anchor_of_all[static_cast<std::size_t>(m)])] = 1;
+        }
+        for (std::size_t i = 0; i < at.size(); ++i) {
+          const std::vector<double> d = path_lengths_from(
+              cs, can_cuts,
+              static_cast<std::uint32_t>(can_anchor_of_all[static_cast<std::size_t>(at[i].first)]),
+              targets, can_of, static_cast<int>(pi));
+          for (std::size_t j = i + 2; j < at.size(); ++j) {
+            if (i == 0 && j + 1 == at.size()) continue;  // neighbours round the loop's end
+            const double gap = std::fabs(at[j].second - at[i].second);
+            const double route = std::min(gap, L - gap);
+            const double D = d[static_cast<std::size_t>(
+                can_anchor_of_all[static_cast<std::size_t>(at[j].first)])];
+            if (route > 0 && D < options.subdivide_ratio * route)
+              candidates.push_back({D / route, at[i].first, at[j].first});
+          }
+        }
+      }
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
+      return std::tie(x.ratio, x.a, x.b) < std::tie(y.ratio, y.a, y.b);
+    });
+    // Each trial traces two paths and compares two layouts: the best 32 only.
+    if (candidates.size() > 32) candidates.resize(32);
+    std::vector<int> of[2] = {patch_of_triangles(ss, sp), patch_of_triangles(cs, cp)};
+    // The patch of `patches` whose loop passes both anchor vertices once, or -1.
+    auto holding = [&](const std::vector<Patch>& patches, int va, int vb) {
+      for (std::size_t pi = 0; pi < patches.size(); ++pi) {
+        const std::vector<std::uint32_t>& loop = patches[pi].loop;
+        if (occurs_once(loop, static_cast<std::uint32_t>(va)) &&
+            occurs_once(loop, static_cast<std::uint32_t>(vb)))
+          return static_cast<int>(pi);
+      }
+      return -1;
+    };
+    for (const Candidate& k : candidates) {
+      const int va[2] = {src_anchor_of_all[static_cast<std::size_t>(k.a)],
+                         can_anchor_of_all[static_cast<std::size_t>(k.a)]};
+      const int vb[2] = {src_anchor_of_all[static_cast<std::size_t>(k.b)],
+                         can_anchor_of_all[static_cast<std::size_t>(k.b)]};
+      const int pc = holding(cp, va[1], vb[1]);
+      if (pc < 0 || va[0] < 0 || vb[0] < 0) continue;
+      const int ps = holding(sp, va[0], vb[0]);
+      if (ps < 0 ||
+          sp[static_cast<std::size_t>(ps)].key() != cp[static_cast<std::size_t>(pc)].key())
+        continue;
+      std::vector<std::uint32_t> chain[2];
+      std::vector<char> try_cuts[2] = {src_cuts, can_cuts};
+      for (int side = 0; side < 2; ++side) {
+        const Surface& surf = side == 0 ? ss : cs;
+        chain[side] =
+            shortest_path(surf, try_cuts[side], static_cast<std::uint32_t>(va[side]),
+                          static_cast<std::uint32_t>(vb[side]), &of[side], side == 0 ? ps : pc);
+        cut_along(surf, chain[side], try_cuts[side]);
+      }
+      if (chain[0].size() < 2 || chain[1].size() < 2 ||
+          !paths_run_alike(ss, chain[0], cs, chain[1]) || !layouts_agree(try_cuts[0], try_cuts[1]))
+        continue;
+      src_cuts = std::move(try_cuts[0]);
+      can_cuts = std::move(try_cuts[1]);
+      src_traced.push_back(std::move(chain[0]));
+      can_traced.push_back(std::move(chain[1]));
+      if (!build_patches(ss, src_cuts, src_anchor, src_tol, true, sp, why) ||
+          !build_patches(cs, can_cuts, can_anchor, can_tol, true, cp, why)) {
+        why = "mapping: layout after subdividing a patch: " + why;
+        return false;
+      }
+      of[0] = patch_of_triangles(ss, sp);
+      of[1] = patch_of_triangles(cs, cp);
+      ++subdivided;
+    }
+  }
   // §6.2: the traced paths refined to their geodesics once the layout is chosen: measured
   // along them (geodesic.h).
   if (options.geodesic_paths) {
@@ -1487,6 +1592,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->patches = cp.size();
     stats->rejected_paths = rejected_paths;
     stats->dropped_anchors = dropped_anchors;
+    stats->subdivided = subdivided;
     stats->min_scaled_jacobian = q.min_scaled_jacobian;
     stats->inverted = q.inverted;
     stats->boundary_moved = boundary_moved;

@@ -23,9 +23,10 @@ struct MapStats {
   std::size_t patches = 0;
   std::size_t rejected_paths = 0;   ///< one-sided edges dropped by the cyclic-order check
   std::size_t dropped_anchors = 0;  ///< matched points not at a mesh vertex on both sides
-  double min_scaled_jacobian = 0;   ///< of the mapped canonical tets
-  std::size_t inverted = 0;         ///< mapped tets inverted or flat (a failure when > 0)
-  std::size_t boundary_moved = 0;   ///< boundary vertices moved by the boundary untangling
+  std::size_t subdivided = 0;  ///< paths added to subdivide patches (MapOptions::subdivide_ratio)
+  double min_scaled_jacobian = 0;  ///< of the mapped canonical tets
+  std::size_t inverted = 0;        ///< mapped tets inverted or flat (a failure when > 0)
+  std::size_t boundary_moved = 0;  ///< boundary vertices moved by the boundary untangling
   bool smoothed = false;  ///< boundary on the smooth reconstruction (false: flat triangles)
 };
 
@@ -58,6 +59,9 @@ struct MapOptions {
   /// lie on the CAD surface as closely as the canonical's own vertices do. Where tets stay
   /// inverted, the mapping is redone on the flat triangles and kept if that succeeds.
   double smooth_alpha = 0.5;
+  /// Patches subdivided by a path between two anchors of their loop that is shorter than this
+  /// fraction of the way round the loop between them (§6.2; 0: none).
+  double subdivide_ratio = 0;
   /// Traced layout paths measured along their geodesics (geodesic.h) for the boundary of the
   /// patches' disks; false: along their mesh edges.
   bool geodesic_paths = true;
