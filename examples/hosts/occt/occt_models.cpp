@@ -253,8 +253,9 @@ LoadCase press_loads(const double*, const Settings& st) {
 // ---- camera mount
 // --------------------------------------------------------------------------------- An L bracket of
 // thickness t: a base plate a x b with two punched mounting holes, an upright of height h with the
-// punched camera-screw hole, the inner bend filleted (rb). A large screw hole on a short upright
-// reaches into the bend fillet and changes the topology there.
+// punched camera-screw hole, the inner bend filleted (rb). Each hole is centred halfway between
+// the fillet's tangent edge and its plate's end and must stay 1.5 mm clear of the end, so it also
+// stays 1.5 mm clear of the fillet: the topology is the same over the whole feasible box.
 NamedShape mount(const double* x) {
   const double a = x[0], h = x[1], b = x[2], t = x[3], rb = x[4], d = x[5];
   NamedShape base = box(1, "base", 0, 0, 0, a, b, t);
