@@ -1175,6 +1175,16 @@ builder::Sample plate_with_rims(double X, double Y, double Z, double h,
   return s;
 }
 
+// Calls f(tag, x) for each corner of each canonical boundary triangle with its mapped position
+// (a vertex once per triangle it is a corner of): the checks that a face keeps its geometry.
+template <class F>
+void for_each_tagged_corner(const builder::Sample& canonical, const builder::MappedSample& m, F f) {
+  for (std::size_t t = 0; t < canonical.triangle_count(); ++t)
+    for (int c = 0; c < 3; ++c)
+      f(canonical.triangle_tags[t],
+        &m.vertices[3 * std::size_t(canonical.triangles[3 * t + std::size_t(c)])]);
+}
+
 }  // namespace voxel
 
 // The plate with three through-holes: its top and bottom faces have four boundary loops each,
@@ -1203,24 +1213,20 @@ TEST(MeshMapper, FaceWithSeveralHolesIsSlitIntoOneDisk) {
   // The faces are flat: the mapped surface lies on the source's and covers it.
   EXPECT_LT(q.hausdorff_max, 1e-9);
   // Each boundary vertex stays on its own face's plane (tags are kept by the combinatorics).
-  for (std::size_t t = 0; t < canonical.triangle_count(); ++t) {
-    const std::int32_t tag = canonical.triangle_tags[t];
-    for (int c = 0; c < 3; ++c) {
-      const double* x = &m.vertices[3 * std::size_t(canonical.triangles[3 * t + std::size_t(c)])];
-      if (tag == 1) {
-        EXPECT_NEAR(x[2], 1.0, 1e-12);
-      }
-      if (tag == 2) {
-        EXPECT_NEAR(x[2], 0.0, 1e-12);
-      }
-      if (tag == 3) {
-        EXPECT_NEAR(x[0], 0.0, 1e-12);
-      }
-      if (tag == 4) {
-        EXPECT_NEAR(x[0], 12.0, 1e-12);
-      }
+  voxel::for_each_tagged_corner(canonical, m, [](std::int32_t tag, const double* x) {
+    if (tag == 1) {
+      EXPECT_NEAR(x[2], 1.0, 1e-12);
     }
-  }
+    if (tag == 2) {
+      EXPECT_NEAR(x[2], 0.0, 1e-12);
+    }
+    if (tag == 3) {
+      EXPECT_NEAR(x[0], 0.0, 1e-12);
+    }
+    if (tag == 4) {
+      EXPECT_NEAR(x[0], 12.0, 1e-12);
+    }
+  });
 }
 
 // Faces that merge across a topology change into a patch with handles: the plate's top and
@@ -1246,29 +1252,25 @@ TEST(MeshMapper, HoleWallsOfOneSideOnlyAreCutOffInsteadOfMakingHandles) {
   const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, nullptr);
   std::printf("plate with 3 re-faced holes: Hausdorff %.2e, min SJ %.3f\n", q.hausdorff_max,
               q.min_scaled_jacobian);
-  for (std::size_t t = 0; t < canonical.triangle_count(); ++t) {
-    const std::int32_t tag = canonical.triangle_tags[t];
-    for (int c = 0; c < 3; ++c) {
-      const double* x = &m.vertices[3 * std::size_t(canonical.triangles[3 * t + std::size_t(c)])];
-      if (tag == 1) {
-        EXPECT_NEAR(x[2], 1.0, 1e-12);
-      }
-      if (tag == 2) {
-        EXPECT_NEAR(x[2], 0.0, 1e-12);
-      }
-      if (tag >= 20) {
-        // On the source's wall of that hole: the boundary of its square, between z = 0 and 1.
-        const voxel::Hole& o = holes[std::size_t(tag - 20) / 4];
-        const double off = std::min({std::fabs(x[0] - o.x0), std::fabs(x[0] - o.x1),
-                                     std::fabs(x[1] - o.y0), std::fabs(x[1] - o.y1)});
-        EXPECT_LT(off, 1e-12);
-        EXPECT_GE(x[0], o.x0 - 1e-12);
-        EXPECT_LE(x[0], o.x1 + 1e-12);
-        EXPECT_GE(x[1], o.y0 - 1e-12);
-        EXPECT_LE(x[1], o.y1 + 1e-12);
-      }
+  voxel::for_each_tagged_corner(canonical, m, [&holes](std::int32_t tag, const double* x) {
+    if (tag == 1) {
+      EXPECT_NEAR(x[2], 1.0, 1e-12);
     }
-  }
+    if (tag == 2) {
+      EXPECT_NEAR(x[2], 0.0, 1e-12);
+    }
+    if (tag >= 20) {
+      // On the source's wall of that hole: the boundary of its square, between z = 0 and 1.
+      const voxel::Hole& o = holes[std::size_t(tag - 20) / 4];
+      const double off = std::min({std::fabs(x[0] - o.x0), std::fabs(x[0] - o.x1),
+                                   std::fabs(x[1] - o.y0), std::fabs(x[1] - o.y1)});
+      EXPECT_LT(off, 1e-12);
+      EXPECT_GE(x[0], o.x0 - 1e-12);
+      EXPECT_LE(x[0], o.x1 + 1e-12);
+      EXPECT_GE(x[1], o.y0 - 1e-12);
+      EXPECT_LE(x[1], o.y1 + 1e-12);
+    }
+  });
   // The walls' corners are CAD edges on the canonical only: the source's wall is one face, so a
   // canonical corner vertex may land beside the source's corner and cut it, by a fraction of
   // the source's cell.
