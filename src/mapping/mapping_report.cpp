@@ -406,6 +406,10 @@ int sweep(const std::vector<std::string>& args) {
   if (!p.parse(args)) return 0;
   const cadinterp_host* h =
       library.empty() ? open_host(model, options) : open_library_host(library, model, host_options);
+  // Checked before the build, which can take minutes.
+  if (parameter >= h->parameter_count)
+    throw cli::UsageError("--parameter must be below " + std::to_string(h->parameter_count) +
+                          ", the model's parameter count");
   std::filesystem::create_directories(out_dir);
   const std::string asset_path = out_dir + "/sweep.cadi";
   cadinterp_build_options o;
@@ -422,7 +426,6 @@ int sweep(const std::vector<std::string>& args) {
   cadinterp_workspace* ws = nullptr;
   cadinterp_workspace_create(asset, &ws);
   const int K = cadinterp_dim(asset);
-  if (parameter >= K) throw cli::UsageError("--parameter must be below " + std::to_string(K));
   std::vector<double> lo(static_cast<std::size_t>(K)), hi(lo.size()), x(lo.size());
   for (int d = 0; d < K; ++d) {
     cadinterp_parameter_info info;
