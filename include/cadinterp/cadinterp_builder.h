@@ -253,7 +253,9 @@ CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* builder);
 
 /**
  * Runs the build and writes the asset to `output_path` (written to a temporary name and
- * renamed, so a killed build never leaves a partial asset under that name).
+ * renamed, so a killed build never leaves a partial asset under that name). The temporary file
+ * is created and removed once before the build starts, so an output that cannot be written (a
+ * missing directory, no permission) fails at once with CADINTERP_E_IO, before any host call.
  * @return CADINTERP_OK; CADINTERP_E_CANCELLED; CADINTERP_E_IO (store or output);
  *         CADINTERP_E_STORE_MISMATCH (the store belongs to another host, identity or box);
  *         CADINTERP_E_INFEASIBLE (no element could be built: the host failed everywhere, or

@@ -13,6 +13,7 @@
 #include "builder/sample_store.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "format/asset_format.h"
+#include "format/asset_writer.h"
 
 using cadinterp::builder::Sample;
 
@@ -243,6 +244,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const
   b->write_seconds = 0;
   const cadinterp_status status = guard(&b->error, [&] {
     if (!path || !*path) throw std::invalid_argument("output path is NULL or empty");
+    cadinterp::format::check_asset_file_writable(path);
     cadinterp::builder::BuildResult r =
         cadinterp::builder::build(*b->host, b->options, &b->details);
     const auto t0 = std::chrono::steady_clock::now();

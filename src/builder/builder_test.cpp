@@ -416,6 +416,13 @@ TEST(Build, RejectsBadArgumentsWithNamedErrors) {
   EXPECT_EQ(cadinterp_builder_run(b, nullptr), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(cadinterp_builder_run(b, "/nonexistent-dir/x.cadi"), CADINTERP_E_IO)
       << cadinterp_builder_error(b);
+  // Refused before the build: the message names the file, and the host was never called.
+  EXPECT_NE(std::string(cadinterp_builder_error(b)).find("/nonexistent-dir/x.cadi.tmp"),
+            std::string::npos)
+      << cadinterp_builder_error(b);
+  cadinterp_build_report rep;
+  ASSERT_EQ(cadinterp_builder_report(b, &rep), CADINTERP_OK);
+  EXPECT_EQ(rep.host_evaluations, 0);
   cadinterp_builder_destroy(b);
   cadinterp_builder_destroy(nullptr);
 }

@@ -2,6 +2,7 @@
 
 #include <xxhash.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -207,6 +208,14 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
   put_le(file, 32, fbb.GetSize(), 8);
   put_le(file, 40, XXH64(fbb.GetBufferPointer(), fbb.GetSize(), 0), 8);
   return file;
+}
+
+void check_asset_file_writable(const std::string& path) {
+  const std::string tmp = path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw FormatError(Status::Io, "cannot create " + tmp + ": " + std::strerror(errno));
+  std::fclose(f);
+  std::remove(tmp.c_str());
 }
 
 void write_asset_file(const AssetContent& content, const WriteOptions& options,

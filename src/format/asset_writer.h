@@ -84,4 +84,9 @@ std::vector<std::uint8_t> write_asset(const AssetContent& content, const WriteOp
 void write_asset_file(const AssetContent& content, const WriteOptions& options,
                       const std::string& path);
 
+/// Creates and removes `path`.tmp, the name write_asset_file writes first: a long build calls
+/// this before it starts, so that an output it could not write fails before the work, not after.
+/// Throws FormatError(Io) naming the file and the system's reason.
+void check_asset_file_writable(const std::string& path);
+
 }  // namespace cadinterp::format
