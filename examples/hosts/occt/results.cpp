@@ -127,6 +127,12 @@ int main(int argc, char** argv) {
     }
   }
   if (points < 1) return usage();
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    std::fprintf(stderr, "cannot create --dir %s: %s\n", dir.c_str(), ec.message().c_str());
+    return 1;
+  }
 
   struct Row {
     std::string model, note;
