@@ -280,6 +280,9 @@ typedef struct cadinterp_build_stages {
   double refinement_seconds;   /**< error tests of the adaptive refinement (mapping included) */
   double elements_seconds;     /**< canonical meshes, terms mapped into them, asset content */
   double write_seconds;        /**< encoding and writing the asset */
+  int unmapped_elements; /**< refused elements whose samples are all feasible: a term could not
+                              be mapped onto the canonical mesh (the other refused elements of
+                              cadinterp_build_report have an infeasible sample) */
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed. Fills at most

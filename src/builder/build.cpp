@@ -635,8 +635,9 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
     const int crow = run.centre_row[static_cast<std::size_t>(leaf)];
     int n = 0;
     const int* terms = cb.element_samples(static_cast<int>(e), &n);
-    bool ok =
+    const bool samples_feasible =
         cb.element_feasible(static_cast<int>(e)) && crow >= 0 && problem.sample(crow).feasible;
+    bool ok = samples_feasible;
     MeshProblem::View m;
     // Per term: nullptr where the term's view (direct mapping or identity) is used, else its
     // sample carried from a neighbour element through a shared sample (§5.3).
@@ -710,6 +711,7 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
     } else {
       element_ok[e] = 0;
       ++rep.infeasible_elements;
+      if (samples_feasible) ++details.unmapped_elements;
     }
     c.elements.push_back(std::move(ed));
   }

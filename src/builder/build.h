@@ -114,6 +114,9 @@ struct BuildReport {
   /// into the element's canonical mesh): the mapper's distinct messages, same rules.
   std::vector<Reason> element_reasons;
   int other_infeasible_elements = 0;
+  /// Elements refused although all their samples are feasible: a term could not be mapped into
+  /// the canonical mesh (the rest of counts.infeasible_elements have an infeasible sample).
+  int unmapped_elements = 0;
   /// Wall time per stage (seconds). store: opening the sample store; sampling: the refinement's
   /// waves of sample points (store reads, host evaluations, store writes); refinement: the rest
   /// of the adaptive run (error tests, including the mapping they need); elements: canonical

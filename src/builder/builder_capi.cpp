@@ -285,6 +285,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.refinement_seconds = d.refinement_seconds;
   s.elements_seconds = d.elements_seconds;
   s.write_seconds = b->write_seconds;
+  s.unmapped_elements = d.unmapped_elements;
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

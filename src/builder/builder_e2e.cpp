@@ -40,6 +40,7 @@ struct WorkspaceDestroyer {
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path) {
   BuildOutcome r;
+  r.stages.struct_size = sizeof r.stages;
   cadinterp_builder* b = nullptr;
   r.status = cadinterp_builder_create(&host, &options, &b);
   if (r.status != CADINTERP_OK) {
@@ -49,6 +50,7 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
   r.status = cadinterp_builder_run(b, output_path.c_str());
   r.error = cadinterp_builder_error(b);
   cadinterp_builder_report(b, &r.report);
+  cadinterp_builder_stages(b, &r.stages);
   cadinterp_builder_destroy(b);
   return r;
 }

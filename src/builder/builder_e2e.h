@@ -33,7 +33,8 @@ struct AccuracyReport {
 struct BuildOutcome {
   cadinterp_status status = CADINTERP_E_INTERNAL;
   cadinterp_build_report report{};
-  std::string error;  ///< the builder's message (or cadinterp_builder_open_error's)
+  cadinterp_build_stages stages{};  ///< struct_size set; zeros when the builder was not created
+  std::string error;                ///< the builder's message (or cadinterp_builder_open_error's)
 };
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path);

@@ -326,6 +326,8 @@ TEST(Build, HostFailuresBecomeInfeasibleRegions) {
     ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
     EXPECT_GT(r.report.infeasible_points, 0);
     EXPECT_GT(r.report.infeasible_elements, 0);
+    // Refused for their failed samples, none for a mapping (the meshes never differ).
+    EXPECT_EQ(r.stages.unmapped_elements, 0);
     cadinterp_asset* a = nullptr;
     ASSERT_EQ(cadinterp_open(path.c_str(), &a), CADINTERP_OK);
     cadinterp_workspace* ws = nullptr;
@@ -360,6 +362,9 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
   // them: they become infeasible with its message, never blended vertex by vertex.
   EXPECT_GT(r.report.infeasible_elements, 0);
   EXPECT_LT(r.report.infeasible_elements, r.report.elements);
+  // Every sample is feasible: each refused element is refused for a mapping.
+  EXPECT_EQ(r.report.infeasible_points, 0);
+  EXPECT_EQ(r.stages.unmapped_elements, r.report.infeasible_elements);
   std::filesystem::remove(path);
 
   // The same through build(): each infeasible element carries the mapper's message, whichever

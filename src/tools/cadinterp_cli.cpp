@@ -1416,8 +1416,8 @@ int cmd_build(const std::vector<std::string>& args) {
     }
     if (st.other_infeasible_points > 0)
       std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
-    std::fprintf(out, "  elements           %d (infeasible %d)\n", r.elements,
-                 r.infeasible_elements);
+    std::fprintf(out, "  elements           %d (infeasible %d, of which unmapped %d)\n", r.elements,
+                 r.infeasible_elements, st.unmapped_elements);
     std::fprintf(
         out,
         "  stages             store %s, sampling %s, refinement %s, elements %s, "

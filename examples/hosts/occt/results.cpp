@@ -137,6 +137,7 @@ int main(int argc, char** argv) {
   struct Row {
     std::string model, note;
     int K = 0, depth = 0, samples = 0, infeasible = 0, elements = 0, bad_elements = 0, stored = 0;
+    int unmapped = 0;  // of bad_elements: samples feasible, a term not mapped
     double mesh_tets = 0, per_sample = 0;
     cadinterp::occt::StageTimes stages;
     bool accuracy = false;
@@ -176,6 +177,7 @@ int main(int argc, char** argv) {
     row.infeasible = b.report.infeasible_points;
     row.elements = b.report.elements;
     row.bad_elements = b.report.infeasible_elements;
+    row.unmapped = b.stages.unmapped_elements;
     row.stored = b.report.stored_meshes;
     row.per_sample =
         b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : 0;
@@ -230,16 +232,16 @@ int main(int argc, char** argv) {
   std::printf("OCCT host results (%s meshes; paper figures in brackets)\n\n",
               full ? "full-size" : "small");
   std::printf(
-      "Table 1  model        K (paper)  depth  samples (paper)  infeasible  elements (refused)"
-      "  mean tets (paper)  stored meshes (paper)  host s/sample\n");
+      "Table 1  model        K (paper)  depth  samples (paper)  infeasible  elements (refused, "
+      "unmapped)  mean tets (paper)  stored meshes (paper)  host s/sample\n");
   for (const Row& r : rows) {
     const PaperRow* p = paper(r.model);
     std::printf(
-        "         %-11s  %d (%d)      %d      %4d (%d)        %4d        %4d (%d)"
-        "          %8.0f (%s)     %5d (%d)             %.3f\n",
+        "         %-11s  %d (%d)      %d      %4d (%d)        %4d        %4d (%d, %d)"
+        "                %8.0f (%s)     %5d (%d)             %.3f\n",
         r.model.c_str(), r.K, p ? p->K : 0, r.depth, r.samples, p ? p->samples : 0, r.infeasible,
-        r.elements, r.bad_elements, r.mesh_tets, p ? p->mesh : "-", r.stored, p ? p->storage : 0,
-        r.per_sample);
+        r.elements, r.bad_elements, r.unmapped, r.mesh_tets, p ? p->mesh : "-", r.stored,
+        p ? p->storage : 0, r.per_sample);
   }
   std::printf(
       "\nStage times per regeneration (s): model  regenerate  tessellate  tetgen  "
