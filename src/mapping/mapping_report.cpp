@@ -155,7 +155,17 @@ int pairs(const std::vector<std::string>& args) {
   p.option("geodesic", 0, "0|1",
            "measure traced layout paths along their geodesics (1) or their mesh edges (0)",
            &geodesic, 0, 1);
+  int foldover_free = 1;
+  p.option("foldover-free", 0, "0|1",
+           "untangle the interior near tets that stay inverted as a whole (1) or not (0)",
+           &foldover_free, 0, 1);
+  int planar = 1;
+  p.option("planar", 0, "0|1",
+           "lay flat patches whose surface map folds into their plane (1) or not (0)", &planar, 0,
+           1);
   if (!p.parse(args)) return 0;
+  mo.planar_patches = planar != 0;
+  mo.foldover_free = foldover_free != 0;
   mo.stiffening = stiffen;
   mo.geodesic_paths = geodesic != 0;
   for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;

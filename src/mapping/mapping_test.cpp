@@ -1185,6 +1185,26 @@ void for_each_tagged_corner(const builder::Sample& canonical, const builder::Map
         &m.vertices[3 * std::size_t(canonical.triangles[3 * t + std::size_t(c)])]);
 }
 
+// Each mapped boundary vertex of the outer faces on its own face's plane (the faces keep their
+// tags through the combinatorics): top z = Z, bottom z = 0, walls x = 0 and x = X.
+void expect_on_outer_planes(const builder::Sample& canonical, const builder::MappedSample& m,
+                            double X, double Z) {
+  for_each_tagged_corner(canonical, m, [X, Z](std::int32_t tag, const double* x) {
+    if (tag == 1) {
+      EXPECT_NEAR(x[2], Z, 1e-12);
+    }
+    if (tag == 2) {
+      EXPECT_NEAR(x[2], 0.0, 1e-12);
+    }
+    if (tag == 3) {
+      EXPECT_NEAR(x[0], 0.0, 1e-12);
+    }
+    if (tag == 4) {
+      EXPECT_NEAR(x[0], X, 1e-12);
+    }
+  });
+}
+
 }  // namespace voxel
 
 // The plate with three through-holes: its top and bottom faces have four boundary loops each,
@@ -1212,21 +1232,7 @@ TEST(MeshMapper, FaceWithSeveralHolesIsSlitIntoOneDisk) {
               q.min_scaled_jacobian);
   // The faces are flat: the mapped surface lies on the source's and covers it.
   EXPECT_LT(q.hausdorff_max, 1e-9);
-  // Each boundary vertex stays on its own face's plane (tags are kept by the combinatorics).
-  voxel::for_each_tagged_corner(canonical, m, [](std::int32_t tag, const double* x) {
-    if (tag == 1) {
-      EXPECT_NEAR(x[2], 1.0, 1e-12);
-    }
-    if (tag == 2) {
-      EXPECT_NEAR(x[2], 0.0, 1e-12);
-    }
-    if (tag == 3) {
-      EXPECT_NEAR(x[0], 0.0, 1e-12);
-    }
-    if (tag == 4) {
-      EXPECT_NEAR(x[0], 12.0, 1e-12);
-    }
-  });
+  voxel::expect_on_outer_planes(canonical, m, 12, 1);
 }
 
 // Faces that merge across a topology change into a patch with handles: the plate's top and
@@ -1252,13 +1258,8 @@ TEST(MeshMapper, HoleWallsOfOneSideOnlyAreCutOffInsteadOfMakingHandles) {
   const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, nullptr);
   std::printf("plate with 3 re-faced holes: Hausdorff %.2e, min SJ %.3f\n", q.hausdorff_max,
               q.min_scaled_jacobian);
+  voxel::expect_on_outer_planes(canonical, m, 12, 1);
   voxel::for_each_tagged_corner(canonical, m, [&holes](std::int32_t tag, const double* x) {
-    if (tag == 1) {
-      EXPECT_NEAR(x[2], 1.0, 1e-12);
-    }
-    if (tag == 2) {
-      EXPECT_NEAR(x[2], 0.0, 1e-12);
-    }
     if (tag >= 20) {
       // On the source's wall of that hole: the boundary of its square, between z = 0 and 1.
       const voxel::Hole& o = holes[std::size_t(tag - 20) / 4];
@@ -1497,4 +1498,34 @@ TEST(PathRelease, ShearAlongATracedPathRelaxesOnTheSourceSurface) {
     place(where[v], p);
     for (int a = 0; a < 3; ++a) EXPECT_EQ(p[a], x[3 * v + std::size_t(a)]);
   }
+}
+
+// A flat face whose hole sits near one corner on the source and near the opposite one on the
+// canonical: the composed disk maps of the top and bottom faces (each slit to its hole) fold
+// canonical triangles over, and the tets on them invert whatever the interior does. Laying the
+// canonical into the face's plane (planar_placement) unfolds the faces, and the interior
+// untangling (foldover_free.h) the tets; the truth is the source solid itself, which the mapped
+// surface must match exactly (flat faces).
+TEST(MeshMapper, FlatFaceWhoseHoleMovesFarIsUnfoldedInItsPlane) {
+  const builder::Sample source = voxel::plate(12, 8, 1, 1, {{1, 1, 2, 2}});
+  const builder::Sample canonical = voxel::plate(12, 8, 1, 0.5, {{8, 5, 10, 7}});
+  ASSERT_EQ(builder::validate(source), "");
+  ASSERT_EQ(builder::validate(canonical), "");
+  builder::MappedSample m;
+  std::string why;
+  mapping::MapStats stats;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
+  EXPECT_EQ(stats.planar_patches, 2u);  // top and bottom
+  EXPECT_EQ(mapping::tet_quality(m.vertices, canonical.tets).inverted, 0u);
+  const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, nullptr);
+  EXPECT_LT(q.hausdorff_max, 1e-9);
+  voxel::expect_on_outer_planes(canonical, m, 12, 1);
+  // Without either step the folds stay and the pair is refused by name, never emitted.
+  mapping::MapOptions without;
+  without.planar_patches = false;
+  without.foldover_free = false;
+  builder::MappedSample refused;
+  why.clear();
+  EXPECT_FALSE(mapping::map_sample(source, canonical, refused, why, nullptr, without));
+  EXPECT_NE(why.find("would invert or flatten"), std::string::npos) << why;
 }

@@ -10,10 +10,13 @@
 #include <set>
 #include <tuple>
 
+#include <Eigen/Dense>
+
 #include "builder/surface_distance.h"
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/field_transfer.h"
+#include "mapping/foldover_free.h"
 #include "mapping/geodesic.h"
 #include "mapping/interior_solve.h"
 #include "mapping/layout_paths.h"
@@ -188,6 +191,91 @@ void relax_in_patch(const builder::Sample& source, const builder::Sample& canoni
       uv[2 * l + 1] = next[2 * l + 1];
     }
   }
+}
+
+// Flat patches, and patches nearly so (§6.3). The composed disk maps are one-to-one in the disk,
+// but a straight canonical triangle between three composed points is not the image of its disk
+// triangle: where the source's disk map is far from linear across one canonical triangle (a wide
+// face against a narrow strip of the same face: the OpenCASCADE press's plate beside fillets of 8.1
+// and 38.5 mm, 81 triangles folded, and every tet on them inverted whatever the interior does)
+// those triangles fold. Where the source patch projects onto its mean plane without any triangle
+// turning over, the projection is a chart in which the folds are removed directly: the patch's
+// inner vertices move in the plane (untangle_foldover_free_planar, the canonical triangles'
+// shapes as reference; loop vertices fixed) and are lifted back onto the source triangles
+// through the chart. Writes each inner local vertex's surface point and source-disk
+// coordinates; false where no such chart exists.
+bool planar_placement(const builder::Sample& source, const builder::Sample& canonical,
+                      const DiskMap& cd, const DiskMap& sd, const std::vector<std::size_t>& inner,
+                      std::vector<SurfacePoint>& at, std::vector<double>& uv) {
+  const std::size_t ns = sd.vertices.size(), n = cd.vertices.size();
+  if (ns < 3 || inner.empty()) return false;
+  auto point = [&](std::size_t l) { return &source.vertices[3 * std::size_t(sd.vertices[l])]; };
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::Zero();
+  for (std::size_t l = 0; l < ns; ++l) centre += Eigen::Vector3d(point(l));
+  centre /= double(ns);
+  for (std::size_t t = 0; 3 * t < sd.triangles.size(); ++t) {
+    const Eigen::Vector3d a(point(std::size_t(sd.triangles[3 * t]))),
+        b(point(std::size_t(sd.triangles[3 * t + 1]))),
+        c(point(std::size_t(sd.triangles[3 * t + 2])));
+    normal += (b - a).cross(c - a);
+  }
+  if (!(normal.norm() > 0)) return false;
+  normal.normalize();
+  double radius = 0;
+  for (std::size_t l = 0; l < ns; ++l)
+    radius = std::max(radius, (Eigen::Vector3d(point(l)) - centre).norm());
+  if (!(radius > 0)) return false;
+  // A frame of the plane with e1 x e2 = normal, so the source's outward triangles stay
+  // counter-clockwise; coordinates scaled into the unit disk, the locator's domain.
+  const Eigen::Vector3d e1 = normal.unitOrthogonal(), e2 = normal.cross(e1);
+  auto to_plane = [&](const double* x, double* u) {
+    const Eigen::Vector3d d = Eigen::Vector3d(x) - centre;
+    u[0] = d.dot(e1) / radius;
+    u[1] = d.dot(e2) / radius;
+  };
+  auto two_area = [](const double* a, const double* b, const double* c) {
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+  };
+  DiskMap chart = sd;
+  for (std::size_t l = 0; l < ns; ++l) to_plane(point(l), &chart.uv[2 * l]);
+  for (std::size_t t = 0; 3 * t < chart.triangles.size(); ++t)
+    if (!(two_area(&chart.uv[2 * std::size_t(chart.triangles[3 * t])],
+                   &chart.uv[2 * std::size_t(chart.triangles[3 * t + 1])],
+                   &chart.uv[2 * std::size_t(chart.triangles[3 * t + 2])]) > 0))
+      return false;  // the projection turns a source triangle over: not a chart
+  // The canonical patch in the chart, from where the composed maps put it.
+  std::vector<double> x(2 * n), reference(3 * n);
+  std::vector<char> fixed(n, 1);
+  for (std::size_t l = 0; l < n; ++l) {
+    double p[3];
+    position_of(source, at[l], p);
+    to_plane(p, &x[2 * l]);
+    for (std::size_t a = 0; a < 3; ++a)
+      reference[3 * l + a] = canonical.vertices[3 * std::size_t(cd.vertices[l]) + a];
+  }
+  for (std::size_t l : inner) fixed[l] = 0;
+  std::vector<std::uint32_t> triangles(cd.triangles.begin(), cd.triangles.end());
+  const FoldoverFreeResult r = untangle_foldover_free_planar(reference, triangles, fixed, 0.0, x);
+  if (!(r.inverted_after < r.inverted_before)) return false;
+  const DiskLocator locator(chart);
+  for (std::size_t l : inner) {
+    int tri;
+    double w[3];
+    locator.locate(x[2 * l], x[2 * l + 1], tri, w);
+    SurfacePoint p;
+    double d[2] = {0, 0};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto q = std::size_t(sd.triangles[3 * std::size_t(tri) + k]);
+      p.v[k] = sd.vertices[q];
+      p.w[k] = w[k];
+      d[0] += w[k] * sd.uv[2 * q];
+      d[1] += w[k] * sd.uv[2 * q + 1];
+    }
+    at[l] = p;
+    uv[2 * l] = d[0];
+    uv[2 * l + 1] = d[1];
+  }
+  return true;
 }
 
 // Local untangling after the harmonic interior (§6.4): a large shape change can leave a few
@@ -1030,6 +1118,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   // the lowest ratio first. Each is traced on both sides in the patch that still holds both
   // anchors, and kept when the two paths run alike and the layouts still agree.
   std::size_t subdivided = 0;
+  std::size_t planar_patches = 0;
   if (options.subdivide_ratio > 0) {
     struct Candidate {
       double ratio;
@@ -1262,6 +1351,52 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       assigned[cd.vertices[l]] = 1;
     }
     std::vector<double> inner_uv(cd.uv);  // the disk coordinates finally used
+    const std::size_t n = cd.vertices.size();
+    auto positions = [&](const std::vector<SurfacePoint>& at) {
+      std::vector<double> P(3 * n);
+      for (std::size_t l = 0; l < n; ++l) position_of(source, at[l], &P[3 * l]);
+      return P;
+    };
+    auto gap = [&](const std::vector<SurfacePoint>& at) {
+      const std::vector<double> P = positions(at);
+      const std::vector<std::uint32_t> F(cd.triangles.begin(), cd.triangles.end());
+      const builder::SurfaceIndex index(P, F);
+      double d = 0;
+      for (std::uint32_t v : sd.vertices)
+        d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
+      return d;
+    };
+    // The patch's triangles whose mapped normal opposes the source's normal where they lie
+    // (the source triangle a vertex of theirs was placed in): folds of the surface map.
+    auto folded = [&](const std::vector<SurfacePoint>& at) {
+      const std::vector<double> P = positions(at);
+      auto normal = [](const double* a, const double* b, const double* e, double* nrm) {
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double w[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
+        nrm[0] = u[1] * w[2] - u[2] * w[1];
+        nrm[1] = u[2] * w[0] - u[0] * w[2];
+        nrm[2] = u[0] * w[1] - u[1] * w[0];
+      };
+      std::vector<std::size_t> folds;
+      for (std::size_t t = 0; 3 * t < cd.triangles.size(); ++t) {
+        const std::size_t q[3] = {std::size_t(cd.triangles[3 * t]),
+                                  std::size_t(cd.triangles[3 * t + 1]),
+                                  std::size_t(cd.triangles[3 * t + 2])};
+        const SurfacePoint* in = nullptr;
+        for (std::size_t k = 0; k < 3 && !in; ++k) {
+          const SurfacePoint& pt = at[q[k]];
+          if (pt.v[0] != pt.v[1] && pt.v[1] != pt.v[2] && pt.v[0] != pt.v[2]) in = &pt;
+        }
+        if (!in) continue;  // all three on the loop: placed along the source path
+        double nm[3], ns[3];
+        normal(&P[3 * q[0]], &P[3 * q[1]], &P[3 * q[2]], nm);
+        normal(&source.vertices[3 * std::size_t(in->v[0])],
+               &source.vertices[3 * std::size_t(in->v[1])],
+               &source.vertices[3 * std::size_t(in->v[2])], ns);
+        if (nm[0] * ns[0] + nm[1] * ns[1] + nm[2] * ns[2] <= 0) folds.push_back(t);
+      }
+      return folds;
+    };
     if (options.relax_iterations > 0 && !inner.empty()) {
       // The relaxation is kept only where it folds no more triangles and brings this patch
       // nearer to the source's (the larger distance from a source patch vertex to the mapped
@@ -1271,7 +1406,6 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       relax_in_patch(source, canonical, cd, sd, locator, inner, where, options.relax_iterations,
                      uv);
       // Per local vertex: where the composed disk maps put it, and where the relaxation does.
-      const std::size_t n = cd.vertices.size();
       std::vector<SurfacePoint> composed(n), relaxed(n);
       std::vector<char> movable(n, 0);
       for (std::size_t l = 0; l < n; ++l) composed[l] = relaxed[l] = where[cd.vertices[l]];
@@ -1279,51 +1413,6 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
         relaxed[l] = disk_point(sd, locator, &uv[2 * l]);
         movable[l] = 1;
       }
-      auto positions = [&](const std::vector<SurfacePoint>& at) {
-        std::vector<double> P(3 * n);
-        for (std::size_t l = 0; l < n; ++l) position_of(source, at[l], &P[3 * l]);
-        return P;
-      };
-      auto gap = [&](const std::vector<SurfacePoint>& at) {
-        const std::vector<double> P = positions(at);
-        const std::vector<std::uint32_t> F(cd.triangles.begin(), cd.triangles.end());
-        const builder::SurfaceIndex index(P, F);
-        double d = 0;
-        for (std::uint32_t v : sd.vertices)
-          d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
-        return d;
-      };
-      // The patch's triangles whose mapped normal opposes the source's normal where they lie
-      // (the source triangle a vertex of theirs was placed in): folds of the surface map.
-      auto folded = [&](const std::vector<SurfacePoint>& at) {
-        const std::vector<double> P = positions(at);
-        auto normal = [](const double* a, const double* b, const double* e, double* nrm) {
-          const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-          const double w[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
-          nrm[0] = u[1] * w[2] - u[2] * w[1];
-          nrm[1] = u[2] * w[0] - u[0] * w[2];
-          nrm[2] = u[0] * w[1] - u[1] * w[0];
-        };
-        std::vector<std::size_t> folds;
-        for (std::size_t t = 0; 3 * t < cd.triangles.size(); ++t) {
-          const std::size_t q[3] = {std::size_t(cd.triangles[3 * t]),
-                                    std::size_t(cd.triangles[3 * t + 1]),
-                                    std::size_t(cd.triangles[3 * t + 2])};
-          const SurfacePoint* in = nullptr;
-          for (std::size_t k = 0; k < 3 && !in; ++k) {
-            const SurfacePoint& pt = at[q[k]];
-            if (pt.v[0] != pt.v[1] && pt.v[1] != pt.v[2] && pt.v[0] != pt.v[2]) in = &pt;
-          }
-          if (!in) continue;  // all three on the loop: placed along the source path
-          double nm[3], ns[3];
-          normal(&P[3 * q[0]], &P[3 * q[1]], &P[3 * q[2]], nm);
-          normal(&source.vertices[3 * std::size_t(in->v[0])],
-                 &source.vertices[3 * std::size_t(in->v[1])],
-                 &source.vertices[3 * std::size_t(in->v[2])], ns);
-          if (nm[0] * ns[0] + nm[1] * ns[1] + nm[2] * ns[2] <= 0) folds.push_back(t);
-        }
-        return folds;
-      };
       // The relaxation can fold triangles the composed map did not (measured on the OpenCASCADE
       // hub: a flange floor whose slit runs one triangle row from a bolt hole's loop, 0 triangles
       // folded composed, 98 relaxed and kept for its smaller gap, 85 tets inverted after). The
@@ -1351,6 +1440,20 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           (folds_relaxed == folds_composed && gap(relaxed) < gap(composed))) {
         for (std::size_t l : inner) where[cd.vertices[l]] = relaxed[l];
         inner_uv = uv;
+      }
+    }
+    if (options.planar_patches && !inner.empty()) {
+      // A patch still folded whose source projects onto a plane (planar_placement): unfolded
+      // there, kept when it folds fewer triangles.
+      std::vector<SurfacePoint> current(n), planar(n);
+      for (std::size_t l = 0; l < n; ++l) current[l] = planar[l] = where[cd.vertices[l]];
+      const std::size_t folds = folded(current).size();
+      std::vector<double> planar_uv = inner_uv;
+      if (folds > 0 && planar_placement(source, canonical, cd, sd, inner, planar, planar_uv) &&
+          folded(planar).size() < folds) {
+        for (std::size_t l : inner) where[cd.vertices[l]] = planar[l];
+        inner_uv = std::move(planar_uv);
+        ++planar_patches;
       }
     }
     for (std::size_t l : inner) {
@@ -1430,6 +1533,14 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       } else {
         out.vertices = first;
       }
+    }
+    if (q.inverted > 0 && options.foldover_free) {
+      // Regions folded over as a whole (foldover_free.h): all interior vertices near them move
+      // together; kept only when fewer tets stay inverted.
+      const FoldoverFreeResult r =
+          untangle_foldover_free(canonical.vertices, canonical.tets, on_surface,
+                                 min_six_volume(out.vertices), out.vertices);
+      if (r.inverted_after < r.inverted_before) q = tet_quality(out.vertices, canonical.tets);
     }
     return true;
   };
@@ -1593,6 +1704,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->rejected_paths = rejected_paths;
     stats->dropped_anchors = dropped_anchors;
     stats->subdivided = subdivided;
+    stats->planar_patches = planar_patches;
     stats->min_scaled_jacobian = q.min_scaled_jacobian;
     stats->inverted = q.inverted;
     stats->boundary_moved = boundary_moved;

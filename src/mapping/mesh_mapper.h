@@ -5,6 +5,7 @@
 //   patch_layout.cpp      common layout: patches bounded by common CAD paths, paired by anchors
 //   mean_value_param.cpp  both sides of a patch onto one disk (Floater), composed
 //   interior_solve.cpp    P1-harmonic interior with the surface map as Dirichlet data
+//   foldover_free.cpp     tangled regions (interior, or a flat patch in its plane) untangled
 //   field_transfer.cpp    per-vertex / per-tet fields at the mapped points
 // Deterministic (no threads, no hash-order iteration) and const: safe from several threads.
 #pragma once
@@ -24,6 +25,7 @@ struct MapStats {
   std::size_t rejected_paths = 0;   ///< one-sided edges dropped by the cyclic-order check
   std::size_t dropped_anchors = 0;  ///< matched points not at a mesh vertex on both sides
   std::size_t subdivided = 0;  ///< paths added to subdivide patches (MapOptions::subdivide_ratio)
+  std::size_t planar_patches = 0;  ///< flat patches laid into their plane (MapOptions)
   double min_scaled_jacobian = 0;  ///< of the mapped canonical tets
   std::size_t inverted = 0;        ///< mapped tets inverted or flat (a failure when > 0)
   std::size_t boundary_moved = 0;  ///< boundary vertices moved by the boundary untangling
@@ -41,6 +43,13 @@ struct MapOptions {
   /// (0 steps: no second solve).
   int fallback_steps = 4;
   double fallback_stiffening = 1.0;
+  /// Flat patches whose composed surface map folds triangles are laid into their plane by the
+  /// canonical's mean-value weights instead, where that folds fewer (mesh_mapper.cpp,
+  /// planar_placement).
+  bool planar_patches = true;
+  /// Where tets stay inverted after that: the interior near them untangled as a whole
+  /// (foldover_free.h).
+  bool foldover_free = true;
   /// Where tets stay inverted after that: passes of boundary untangling (boundary_untangle.h,
   /// boundary vertices moved within the source surface) each followed by the interior solve
   /// (0: none).
@@ -81,8 +90,9 @@ class MeshMapper final : public builder::Mapper {
     return map_sample(source, canonical, out, why, nullptr);
   }
   // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface. v3: faces
-  // merged across a topology change separated again, traced paths measured along geodesics.
-  const char* name() const override { return "mesh-v3"; }
+  // merged across a topology change separated again, traced paths measured along geodesics. v4:
+  // folded flat patches unfolded in their plane, tangled interiors untangled as a whole.
+  const char* name() const override { return "mesh-v4"; }
 };
 
 }  // namespace cadinterp::mapping
