@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <deque>
 
@@ -149,7 +150,7 @@ class Energy {
 // Limited-memory BFGS (two-loop recursion, Nocedal and Wright Alg. 7.4) with an Armijo
 // backtracking line search; z is left at the last accepted point.
 template <int D>
-void minimise(Energy<D>& energy, VectorXd& z, double eps, int iterations) {
+void minimise(Energy<D>& energy, VectorXd& z, double eps, int iterations, int max_evaluations) {
   constexpr std::size_t kMemory = 8;
   std::deque<VectorXd> s_list, y_list;
   VectorXd g, g_new;
@@ -160,7 +161,7 @@ void minimise(Energy<D>& energy, VectorXd& z, double eps, int iterations) {
     const double m = d.template lpNorm<Eigen::Infinity>();
     if (m > 0) d *= 0.1 * energy.length() / m;
   };
-  for (int it = 0; it < iterations; ++it) {
+  for (int it = 0; it < iterations && energy.evaluations() < max_evaluations; ++it) {
     // Two-loop recursion: d = -H g.
     VectorXd d = -g;
     std::vector<double> alpha(s_list.size());
@@ -246,8 +247,10 @@ void attempt(Energy<D>& energy, const std::vector<double>& x,
   double eps = std::sqrt(1e-12 + 0.04 * std::pow(std::min(min_det, 0.0), 2));
   double e_prev = energy(z, eps, nullptr, nullptr);
   int stalled = 0;
+  const int budget = options.max_evaluations > 0 ? options.max_evaluations : INT_MAX;
   for (int k = 0; k < options.outer_iterations && best_inverted > 0; ++k) {
-    minimise(energy, z, eps, options.inner_iterations);
+    if (energy.evaluations() >= budget) break;
+    minimise(energy, z, eps, options.inner_iterations, budget);
     const double e = energy(z, eps, nullptr, &min_det);
     const std::size_t inverted = count_inverted<D>(x, elements, min_measure);
     if (inverted < best_inverted) {

@@ -31,6 +31,8 @@ struct FoldoverFreeOptions {
   int inner_iterations = 100;
   /// An attempt stops after this many eps updates without fewer inverted elements.
   int stall_iterations = 6;
+  /// ... or after this many energy evaluations (0: no limit).
+  int max_evaluations = 0;
   /// Free vertices: those not fixed within this many vertex rings of an inverted element (-1:
   /// all not fixed).
   int rings = 4;

@@ -70,6 +70,23 @@ TEST(FoldoverFree, InteriorTurnedInsideOutIsUntangled) {
   }
 }
 
+// The evaluation budget bounds the work (one line search may finish past it): a mapping that
+// cannot be rescued is refused in bounded time.
+TEST(FoldoverFree, StopsWithinItsEvaluationBudget) {
+  const Cube cube(6);
+  std::vector<double> x = cube.x;
+  for (std::size_t v = 0; v < cube.fixed.size(); ++v)
+    if (!cube.fixed[v])
+      for (std::size_t a = 0; a < 3; ++a) x[3 * v + a] = 1.0 - x[3 * v + a];
+  mapping::FoldoverFreeOptions options;
+  options.max_evaluations = 5;
+  const mapping::FoldoverFreeResult r =
+      mapping::untangle_foldover_free(cube.x, cube.tets, cube.fixed, 0.0, x, options);
+  EXPECT_GT(r.evaluations, 0);
+  EXPECT_LE(r.evaluations, 5 + 45);  // the budget, one line search (40 halvings), 4 for eps
+  EXPECT_GT(r.inverted_after, 0u);
+}
+
 // The boundary twisted about the vertical axis by a full turn from bottom to top (at 300
 // degrees and below the harmonic interior of this grid stays valid): the harmonic interior
 // (interior_solve.h) pulls the vertices near the axis past each other and inverts tets; the

@@ -1,6 +1,7 @@
 #include "mapping/mesh_mapper.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -1522,6 +1523,21 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     }
     return true;
   };
+  // Regions folded over as a whole (foldover_free.h): the interior vertices near the tets still
+  // inverted move together; kept when fewer stay inverted. All calls of one mapping share
+  // MapOptions::foldover_free_evaluations.
+  int foldover_budget =
+      options.foldover_free_evaluations > 0 ? options.foldover_free_evaluations : INT_MAX;
+  auto untangle_whole = [&](TetQuality& q) {
+    if (foldover_budget <= 0) return;
+    FoldoverFreeOptions fo;
+    fo.max_evaluations = foldover_budget;
+    const FoldoverFreeResult r =
+        untangle_foldover_free(canonical.vertices, canonical.tets, on_surface,
+                               min_six_volume(out.vertices), out.vertices, fo);
+    foldover_budget -= r.evaluations;
+    if (r.inverted_after < r.inverted_before) q = tet_quality(out.vertices, canonical.tets);
+  };
   auto solve = [&](TetQuality& q) {
     if (!interior(options.interior_steps, options.stiffening, q)) return false;
     if (q.inverted > 0 && options.fallback_steps > 0) {
@@ -1534,14 +1550,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
         out.vertices = first;
       }
     }
-    if (q.inverted > 0 && options.foldover_free) {
-      // Regions folded over as a whole (foldover_free.h): all interior vertices near them move
-      // together; kept only when fewer tets stay inverted.
-      const FoldoverFreeResult r =
-          untangle_foldover_free(canonical.vertices, canonical.tets, on_surface,
-                                 min_six_volume(out.vertices), out.vertices);
-      if (r.inverted_after < r.inverted_before) q = tet_quality(out.vertices, canonical.tets);
-    }
+    if (q.inverted > 0 && options.foldover_free && options.foldover_free_early) untangle_whole(q);
     return true;
   };
   TetQuality q;
@@ -1698,6 +1707,10 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       }
     }
   }
+  if (q.inverted > 0 && options.foldover_free && !options.foldover_free_early) {
+    // Last resort (MapOptions::foldover_free): from the best state so far.
+    untangle_whole(q);
+  }
   if (stats) {
     stats->matched_points = corr.anchors.size();
     stats->patches = cp.size();
@@ -1710,7 +1723,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->boundary_moved = boundary_moved;
     stats->smoothed = smooth != nullptr;
   }
-  if (q.inverted > 0 && !folded && options.smooth_alpha > 0) {
+  if (q.inverted > 0 && !folded && options.smooth_alpha > 0 && !options.foldover_free_early) {
     // The same mapping on the flat source triangles, kept when it succeeds: the reconstruction
     // lifts boundary vertices by up to the chordal sag, which can leave a thin tet near the
     // boundary inverted that the flat placement does not (measured on the OpenCASCADE press: 1
@@ -1723,6 +1736,21 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     if (map_sample(source, canonical, flat_out, flat_why, &flat_stats, flat)) {
       out = std::move(flat_out);
       if (stats) *stats = flat_stats;
+      return true;
+    }
+  }
+  if (q.inverted > 0 && options.foldover_free && !options.foldover_free_early) {
+    // Once more with the untangling inside every interior solve, so that the release and the
+    // boundary untangling start from an untangled interior: measured on the OpenCASCADE press
+    // across its change, pairs 88 and 233 map only this way, pair 128 only the other way.
+    MapOptions early = options;
+    early.foldover_free_early = true;
+    builder::MappedSample early_out;
+    std::string early_why;
+    MapStats early_stats;
+    if (map_sample(source, canonical, early_out, early_why, &early_stats, early)) {
+      out = std::move(early_out);
+      if (stats) *stats = early_stats;
       return true;
     }
   }

@@ -47,9 +47,7 @@ struct MapOptions {
   /// canonical's mean-value weights instead, where that folds fewer (mesh_mapper.cpp,
   /// planar_placement).
   bool planar_patches = true;
-  /// Where tets stay inverted after that: the interior near them untangled as a whole
-  /// (foldover_free.h).
-  bool foldover_free = true;
+
   /// Where tets stay inverted after that: passes of boundary untangling (boundary_untangle.h,
   /// boundary vertices moved within the source surface) each followed by the interior solve
   /// (0: none).
@@ -59,6 +57,16 @@ struct MapOptions {
   /// measured on the OpenCASCADE hub, pairs with 4-5 % inverted kept 1.2-2.5 % after minutes of
   /// untangling, while every pair the untangling rescued (mount, press) had under 0.3 %.
   double untangle_max_fraction = 0.01;
+  /// Where tets stay inverted after the interior solve, the release and the boundary
+  /// untangling (below): the interior near them untangled as a whole (foldover_free.h), within this
+  /// many energy evaluations (0: no limit), so that a pair it cannot rescue is refused in bounded
+  /// time.
+  bool foldover_free = true;
+  int foldover_free_evaluations = 6000;
+  /// The untangling inside every interior solve instead (steps 4a and 4b then start from the
+  /// untangled interior). map_sample retries with it where the mapping fails otherwise; the
+  /// retry skips the flat-triangle retry (smooth_alpha), which makes its own.
+  bool foldover_free_early = false;
   /// Where tets stay inverted after the interior solve: Jacobi sweeps relaxing the surface map
   /// across the layout's traced paths (kept only if then no tet is inverted; 0: none).
   int release_sweeps = 20;
