@@ -45,6 +45,15 @@ struct Cube {
   }
 };
 
+// The cube's positions with every interior vertex reflected through the centre.
+std::vector<double> turned_inside_out(const Cube& cube) {
+  std::vector<double> x = cube.x;
+  for (std::size_t v = 0; v < cube.fixed.size(); ++v)
+    if (!cube.fixed[v])
+      for (std::size_t a = 0; a < 3; ++a) x[3 * v + a] = 1.0 - x[3 * v + a];
+  return x;
+}
+
 std::size_t inverted(const std::vector<double>& x, const std::vector<std::uint32_t>& tets) {
   return mapping::tet_quality(x, tets).inverted;
 }
@@ -53,10 +62,7 @@ std::size_t inverted(const std::vector<double>& x, const std::vector<std::uint32
 // whole (each interior vertex's own star is inverted wherever it goes alone).
 TEST(FoldoverFree, InteriorTurnedInsideOutIsUntangled) {
   const Cube cube(6);
-  std::vector<double> x = cube.x;
-  for (std::size_t v = 0; v < cube.fixed.size(); ++v)
-    if (!cube.fixed[v])
-      for (std::size_t a = 0; a < 3; ++a) x[3 * v + a] = 1.0 - x[3 * v + a];
+  std::vector<double> x = turned_inside_out(cube);
   const std::size_t before = inverted(x, cube.tets);
   ASSERT_GT(before, 100u);
   const mapping::FoldoverFreeResult r =
@@ -74,10 +80,7 @@ TEST(FoldoverFree, InteriorTurnedInsideOutIsUntangled) {
 // cannot be rescued is refused in bounded time.
 TEST(FoldoverFree, StopsWithinItsEvaluationBudget) {
   const Cube cube(6);
-  std::vector<double> x = cube.x;
-  for (std::size_t v = 0; v < cube.fixed.size(); ++v)
-    if (!cube.fixed[v])
-      for (std::size_t a = 0; a < 3; ++a) x[3 * v + a] = 1.0 - x[3 * v + a];
+  std::vector<double> x = turned_inside_out(cube);
   mapping::FoldoverFreeOptions options;
   options.max_evaluations = 5;
   const mapping::FoldoverFreeResult r =

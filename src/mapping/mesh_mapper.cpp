@@ -1723,6 +1723,16 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     stats->boundary_moved = boundary_moved;
     stats->smoothed = smooth != nullptr;
   }
+  // The whole mapping again with other options; its result replaces this one when it succeeds.
+  auto retry = [&](const MapOptions& other) {
+    builder::MappedSample other_out;
+    std::string other_why;
+    MapStats other_stats;
+    if (!map_sample(source, canonical, other_out, other_why, &other_stats, other)) return false;
+    out = std::move(other_out);
+    if (stats) *stats = other_stats;
+    return true;
+  };
   if (q.inverted > 0 && !folded && options.smooth_alpha > 0 && !options.foldover_free_early) {
     // The same mapping on the flat source triangles, kept when it succeeds: the reconstruction
     // lifts boundary vertices by up to the chordal sag, which can leave a thin tet near the
@@ -1730,14 +1740,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     // of 9 pairs; others the other way round), so the smooth placement never costs a pair.
     MapOptions flat = options;
     flat.smooth_alpha = 0;
-    builder::MappedSample flat_out;
-    std::string flat_why;
-    MapStats flat_stats;
-    if (map_sample(source, canonical, flat_out, flat_why, &flat_stats, flat)) {
-      out = std::move(flat_out);
-      if (stats) *stats = flat_stats;
-      return true;
-    }
+    if (retry(flat)) return true;
   }
   if (q.inverted > 0 && options.foldover_free && !options.foldover_free_early) {
     // Once more with the untangling inside every interior solve, so that the release and the
@@ -1745,14 +1748,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     // across its change, pairs 88 and 233 map only this way, pair 128 only the other way.
     MapOptions early = options;
     early.foldover_free_early = true;
-    builder::MappedSample early_out;
-    std::string early_why;
-    MapStats early_stats;
-    if (map_sample(source, canonical, early_out, early_why, &early_stats, early)) {
-      out = std::move(early_out);
-      if (stats) *stats = early_stats;
-      return true;
-    }
+    if (retry(early)) return true;
   }
   if (q.inverted > 0) {
     auto percent = [](double f) {
