@@ -673,8 +673,15 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
         ++out.neighbour.bridged;
       } else if (!direct) {
         const std::string& why = problem.why(row, crow);
-        out.infeasible.push_back(
-            {problem.point(crow), "element " + std::to_string(e) + ": " + why});
+        // The recorded point is the element's centre; the message names the term's own sample
+        // as well, so that the failing pair can be mapped again on its own.
+        std::string term = "element " + std::to_string(e) + ", term sample at (";
+        for (std::size_t d = 0; d < problem.point(row).size(); ++d) {
+          char v[32];
+          std::snprintf(v, sizeof v, "%s%.6g", d ? ", " : "", problem.point(row)[d]);
+          term += v;
+        }
+        out.infeasible.push_back({problem.point(crow), term + "): " + why});
         count_reason(details.element_reasons, details.other_infeasible_elements, why, {});
         ok = false;
       }

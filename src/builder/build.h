@@ -130,6 +130,8 @@ struct BuildReport {
 struct BuildResult {
   std::unique_ptr<core::CompiledBasis> basis;
   format::AssetContent content;  ///< content.basis points to *basis
+  /// Host failures at their points; and per element refused because a term could not be mapped,
+  /// the element's centre with "element E, term sample at (x...): " and the mapper's message.
   std::vector<InfeasiblePoint> infeasible;
   cadinterp_build_report report{};  ///< == details.counts
   BuildReport details;

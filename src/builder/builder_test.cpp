@@ -395,8 +395,11 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
 #else
                                                      : "identity mapper maps equal";
 #endif
-    for (const builder::InfeasiblePoint& p : b.infeasible)
+    // ... and names the failing term's sample, so that the pair can be mapped again alone.
+    for (const builder::InfeasiblePoint& p : b.infeasible) {
       EXPECT_NE(p.message.find(expected), std::string::npos) << p.message;
+      EXPECT_NE(p.message.find(", term sample at ("), std::string::npos) << p.message;
+    }
   }
 }
 

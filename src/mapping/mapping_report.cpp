@@ -120,6 +120,12 @@ int pairs(const std::vector<std::string>& args) {
            "parameter (a K-d tree element F = 2^-depth across), the canonical at its centre and "
            "the source at one of its corners (0: two independent random points)",
            &element, 0.0, 1.0);
+  std::string box;
+  p.option("box", 0, "LO:HI,...",
+           "map every corner of this parameter box onto its centre, as the builder maps a linear "
+           "element's terms (one LO:HI per parameter; -n is then 2^K and --only picks a corner, "
+           "bit d set for the upper side of parameter d)",
+           &box);
   bool across = false;
   p.flag("across", 0,
          "map only pairs across a B-rep topology change ('T' or 'E' in the topo column), drawing "
@@ -180,6 +186,21 @@ int pairs(const std::vector<std::string>& args) {
       analytic ? open_host(model, options) : open_library_host(library, model, options);
   const builder::Host host(*h);
   const analytic_model* am = analytic ? analytic_host_model(h) : nullptr;
+  std::vector<double> box_lo, box_hi;
+  if (!box.empty()) {
+    for (const std::string& r : cli::split_list(box)) {
+      double lo = 0, hi = 0;
+      char tail = 0;
+      if (std::sscanf(r.c_str(), "%lf:%lf%c", &lo, &hi, &tail) != 2 || !(lo <= hi))
+        throw std::runtime_error("--box: '" + r + "' is not LO:HI with LO <= HI");
+      box_lo.push_back(lo);
+      box_hi.push_back(hi);
+    }
+    if (static_cast<int>(box_lo.size()) != host.dim())
+      throw std::runtime_error("--box: " + std::to_string(box_lo.size()) + " ranges for " +
+                               std::to_string(host.dim()) + " parameters");
+    count = 1 << host.dim();
+  }
   std::mt19937 rng(static_cast<unsigned>(seed));
   auto random_x = [&] {
     std::vector<double> x(static_cast<std::size_t>(host.dim()));
@@ -197,9 +218,14 @@ int pairs(const std::vector<std::string>& args) {
   double min_sj = 1;
   std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, edges_only = 0, infeasible = 0;
   int found = 0;
-  for (int i = 0; across ? found < count && i < 200 * count : i < count; ++i) {
+  for (int i = 0; across && box_lo.empty() ? found < count && i < 200 * count : i < count; ++i) {
     std::vector<double> xa = random_x(), xc = random_x();
-    if (element > 0) {
+    if (!box_lo.empty()) {
+      for (std::size_t d = 0; d < xa.size(); ++d) {
+        xc[d] = 0.5 * (box_lo[d] + box_hi[d]);
+        xa[d] = (i >> d) & 1 ? box_hi[d] : box_lo[d];
+      }
+    } else if (element > 0) {
       // xa picks the box's position, xc's coordinates the corner (below or above the centre).
       for (std::size_t d = 0; d < xa.size(); ++d) {
         const double lo = host.lower()[d], hi = host.upper()[d], half = 0.5 * element * (hi - lo);

@@ -486,6 +486,15 @@ int cmd_inspect(const std::vector<std::string>& args) {
     for (const int e : infeasible) w.value(e);
     w.end_array();
     w.end_object();
+    w.key("infeasible_points").begin_array();
+    if (const auto* inf = idx.infeasible())
+      for (const auto* f : *inf) {
+        w.begin_object().key("x").begin_array();
+        if (f->x())
+          for (const double v : *f->x()) w.value(v);
+        w.end_array().field("message", f->message() ? f->message()->str() : "").end_object();
+      }
+    w.end_array();
     w.key("element_sizes").begin_object();
     write_stat(w, "vertices", verts);
     write_stat(w, "tets", tets);
@@ -558,6 +567,20 @@ int cmd_inspect(const std::vector<std::string>& args) {
     for (std::size_t i = 0; i < infeasible.size() && i < 20; ++i) std::printf(" %d", infeasible[i]);
     if (infeasible.size() > 20) std::printf(" ... (%zu more)", infeasible.size() - 20);
     std::printf("\n");
+  }
+  // The builder's record of why: host failures at their points, and elements refused because a
+  // term could not be mapped (at the element's centre, the term's sample named in the message).
+  if (const auto* inf = idx.infeasible(); inf && inf->size() > 0) {
+    std::printf("  infeasible points recorded: %u\n", inf->size());
+    for (flatbuffers::uoffset_t i = 0; i < inf->size() && i < 20; ++i) {
+      const auto* f = inf->Get(i);
+      std::printf("    (");
+      if (f->x())
+        for (flatbuffers::uoffset_t d = 0; d < f->x()->size(); ++d)
+          std::printf("%s%g", d ? ", " : "", f->x()->Get(d));
+      std::printf(") %s\n", f->message() ? f->message()->c_str() : "");
+    }
+    if (inf->size() > 20) std::printf("    ... (%u more)\n", inf->size() - 20);
   }
   std::printf("\nelements     (feasible ones)\n");
   std::printf("  vertices   %s (total %.0f)\n", stat_text(verts).c_str(), verts.sum);

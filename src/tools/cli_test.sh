@@ -215,6 +215,17 @@ if grep -q "^builder: yes" "$WORK/version.out"; then
   run 1 r_host -- build --host "$WORK/missing.so" -o "$WORK/x.cadi" && contains r_host err "cannot load host library"
   if grep -q "^built-in hosts:.*analytic" "$WORK/version.out"; then
     build_with builtin analytic
+    # The points where the host failed, with its message, are listed by inspect.
+    if run 0 build_fail -- build --host analytic --model bracket --host-options cells=1,fail_region=1 \
+      --max-samples 12 --max-depth 2 --threads 2 -o "$WORK/fail.cadi"; then
+      run 0 build_fail_inspect -- inspect "$WORK/fail.cadi" &&
+        contains build_fail_inspect out "infeasible points recorded:" &&
+        contains build_fail_inspect out "fail_region"
+      run 0 build_fail_inspectj -- inspect "$WORK/fail.cadi" --json &&
+        [ "$(json_get "$WORK/build_fail_inspectj.out" \
+          'all(len(p["x"]) == len(d["parameters"]) and "fail_region" in p["message"] for p in d["infeasible_points"]) and len(d["infeasible_points"]) > 0')" = True ] ||
+        fail "inspect --json: infeasible points of a build with a fail region"
+    fi
     run 1 r_model -- build --host analytic --model nosuchmodel -o "$WORK/x.cadi" &&
       contains r_model err "refused model 'nosuchmodel'"
   else
