@@ -39,7 +39,9 @@ std::vector<double> arc_length_on(const Surface& s, const std::vector<std::uint3
 /// Measures every traced path of one side along its geodesic (corridor: the triangles within
 /// two rings of the path, in the patches beside it) and re-measures the loops of `patches` that
 /// run along them: loop_s and anchor_s change, nothing else. Paths whose geodesic cannot be
-/// found keep their arc length. Returns the number of paths re-measured.
+/// found keep their arc length, and so do paths more than 1.5 times as long as their geodesic:
+/// those detour (round a hole) rather than zigzag about it, and their nearest points on it would
+/// crowd the detour into one point. Returns the number of paths re-measured.
 std::size_t measure_traced_paths_along_geodesics(
     const Surface& s, const std::vector<std::vector<std::uint32_t>>& traced,
     std::vector<Patch>& patches);
