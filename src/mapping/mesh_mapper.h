@@ -99,8 +99,9 @@ class MeshMapper final : public builder::Mapper {
   }
   // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface. v3: faces
   // merged across a topology change separated again, traced paths measured along geodesics. v4:
-  // folded flat patches unfolded in their plane, tangled interiors untangled as a whole.
-  const char* name() const override { return "mesh-v4"; }
+  // folded flat patches unfolded in their plane, tangled interiors untangled as a whole. v5: a
+  // one-sided edge routed so that holes keep their side, detouring paths measured along edges.
+  const char* name() const override { return "mesh-v5"; }
 };
 
 }  // namespace cadinterp::mapping
