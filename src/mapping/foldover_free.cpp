@@ -337,6 +337,28 @@ FoldoverFreeResult untangle_foldover_free(const std::vector<double>& reference,
   return untangle<3>(shapes, tets, fixed, min_six_volume, x, options);
 }
 
+double foldover_free_energy(const std::vector<double>& reference,
+                            const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
+                            const std::vector<double>& x, double eps,
+                            std::vector<double>* gradient) {
+  std::vector<Mat<3>> shapes(tets.size() / 4);
+  for (std::size_t t = 0; t < shapes.size(); ++t) shapes[t] = edges<3>(reference, &tets[4 * t]);
+  std::vector<char> free_vertex(fixed.size());
+  for (std::size_t v = 0; v < fixed.size(); ++v) free_vertex[v] = fixed[v] ? 0 : 1;
+  std::vector<double> work = x;
+  Energy<3> energy(shapes, tets, free_vertex, work);
+  VectorXd g;
+  const double f = energy(energy.get(), eps, gradient ? &g : nullptr, nullptr);
+  if (gradient) {
+    gradient->assign(x.size(), 0.0);
+    std::size_t i = 0;
+    for (std::size_t v = 0; v < free_vertex.size(); ++v)
+      if (free_vertex[v])
+        for (std::size_t a = 0; a < 3; ++a, ++i) (*gradient)[3 * v + a] = g[Eigen::Index(i)];
+  }
+  return f;
+}
+
 FoldoverFreeResult untangle_foldover_free_planar(const std::vector<double>& reference,
                                                  const std::vector<std::uint32_t>& triangles,
                                                  const std::vector<char>& fixed,

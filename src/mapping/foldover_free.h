@@ -56,6 +56,16 @@ FoldoverFreeResult untangle_foldover_free(const std::vector<double>& reference,
                                           std::vector<double>& x,
                                           const FoldoverFreeOptions& options = {});
 
+/// The energy untangle_foldover_free minimises, at positions `x` with this eps: summed over the
+/// tets with a vertex not in `fixed`, the reference scaled to their volume at `x`. With `gradient`,
+/// also dF/dx (#V by 3, 0 at fixed vertices). For checking the derivative against differences:
+/// the scale depends on `x` only through the fixed vertices (the tets' signed volume is fixed by
+/// the boundary of their union), so moving free vertices leaves it unchanged.
+double foldover_free_energy(const std::vector<double>& reference,
+                            const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
+                            const std::vector<double>& x, double eps,
+                            std::vector<double>* gradient = nullptr);
+
 /// The same in the plane: `x` (#V by 2) positions of the triangles `triangles` (#F by 3,
 /// counter-clockwise when valid), each triangle's reference shape that of the same triangle in
 /// `reference` (#V by 3, in its own plane). A triangle counts as inverted where 2 A <=
