@@ -344,9 +344,10 @@ int cmd_inspect(const std::vector<std::string>& args) {
   std::string path;
   bool json = false;
   ArgParser p("cadinterp inspect", "ASSET [--json]",
-              "Shows what an asset holds: parameters, basis degree, K-d tree statistics, element\n"
-              "mesh sizes, stored bytes by kind and codec, fields, boundary-condition regions\n"
-              "and the build's provenance. The whole index is verified first.");
+              "Shows what an asset holds: parameters, basis degree, K-d tree statistics, the\n"
+              "points the builder recorded as infeasible and why, element mesh sizes, stored\n"
+              "bytes by kind and codec, fields, boundary-condition regions and the build's\n"
+              "provenance. The whole index is verified first.");
   p.flag("json", 0, "print JSON instead of text", &json);
   p.positional("ASSET", "the asset file (.cadi)", &path);
   if (!p.parse(args)) return kExitOk;
