@@ -54,8 +54,8 @@ Mapped map_pair(const std::string& model_name, const std::string& options,
 // boundary loops could not be subdivided into disks"). Routed within the fillet instead, the
 // bore stays with the ceiling on both sides.
 TEST(OcctMapping, PressBoreThatCutsTheFilletEdgeStaysWithTheCeiling) {
-  const Mapped r = map_pair("press", "mesh_size=30,quality=2,angle=0.4",
-                            {200, 100, 40, 35, 10}, {225, 115, 31.25, 30, 15});
+  const Mapped r = map_pair("press", "mesh_size=30,quality=2,angle=0.4", {200, 100, 40, 35, 10},
+                            {225, 115, 31.25, 30, 15});
   EXPECT_EQ(r.stats.inverted, 0u);
   EXPECT_EQ(r.quality.inverted, 0u);
   EXPECT_LT(r.quality.hausdorff_max, 1e-3);
@@ -70,8 +70,7 @@ TEST(OcctMapping, PressBoreThatCutsTheFilletEdgeStaysWithTheCeiling) {
 // sag by about 1.5e-3 of the diagonal on either mesh, which bounds the Hausdorff distance here;
 // at the host's default size the same element's corners are within 8.7e-4 (src/mapping/README.md).
 TEST(OcctMapping, HubSlitRoundABoltHoleIsMeasuredAlongItsEdges) {
-  const Mapped r = map_pair("hub", "mesh_size=16,quality=2,angle=0.4", {10, 0, 6.5},
-                            {9, 3, 5.625});
+  const Mapped r = map_pair("hub", "mesh_size=16,quality=2,angle=0.4", {10, 0, 6.5}, {9, 3, 5.625});
   EXPECT_EQ(r.stats.inverted, 0u);
   EXPECT_EQ(r.quality.inverted, 0u);
   EXPECT_LT(r.quality.hausdorff_max, 2e-3);
