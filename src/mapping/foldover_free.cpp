@@ -325,6 +325,14 @@ FoldoverFreeResult untangle(const std::vector<Mat<D>>& reference,
   return r;
 }
 
+// Each reference tet's edge matrix.
+std::vector<Mat<3>> tet_shapes(const std::vector<double>& reference,
+                               const std::vector<std::uint32_t>& tets) {
+  std::vector<Mat<3>> shapes(tets.size() / 4);
+  for (std::size_t t = 0; t < shapes.size(); ++t) shapes[t] = edges<3>(reference, &tets[4 * t]);
+  return shapes;
+}
+
 }  // namespace
 
 FoldoverFreeResult untangle_foldover_free(const std::vector<double>& reference,
@@ -332,17 +340,14 @@ FoldoverFreeResult untangle_foldover_free(const std::vector<double>& reference,
                                           const std::vector<char>& fixed, double min_six_volume,
                                           std::vector<double>& x,
                                           const FoldoverFreeOptions& options) {
-  std::vector<Mat<3>> shapes(tets.size() / 4);
-  for (std::size_t t = 0; t < shapes.size(); ++t) shapes[t] = edges<3>(reference, &tets[4 * t]);
-  return untangle<3>(shapes, tets, fixed, min_six_volume, x, options);
+  return untangle<3>(tet_shapes(reference, tets), tets, fixed, min_six_volume, x, options);
 }
 
 double foldover_free_energy(const std::vector<double>& reference,
                             const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
                             const std::vector<double>& x, double eps,
                             std::vector<double>* gradient) {
-  std::vector<Mat<3>> shapes(tets.size() / 4);
-  for (std::size_t t = 0; t < shapes.size(); ++t) shapes[t] = edges<3>(reference, &tets[4 * t]);
+  const std::vector<Mat<3>> shapes = tet_shapes(reference, tets);
   std::vector<char> free_vertex(fixed.size());
   for (std::size_t v = 0; v < fixed.size(); ++v) free_vertex[v] = fixed[v] ? 0 : 1;
   std::vector<double> work = x;
