@@ -851,7 +851,8 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           // its merged patch, whose CAD edges are new on both sides: the hub's bolt-hole rim on
           // the floor or the bottom, or the wall's far rim once its near one is anchored; the
           // press's ram bore rim): a slit from a first-loop anchor to the hole loop's
-          // vertex nearest along the surface, on each side, whose end becomes a new anchor. No
+          // vertex nearest along the surface on one side and to the vertex in the same direction
+          // from the loop's centre on the other, whose end becomes a new anchor. No
           // ID names the source patch's loop that corresponds: it is the one whose centre lies
           // nearest the canonical loop's, when the canonical loop is also the nearest to it
           // (mutually nearest; the two samples are of one model, so such loops move with the
@@ -887,12 +888,22 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           const Loop* match = nearest_loop(ss, sp[sidx], hc);
           if (match) centre(ss, *match, hs);
           if (!match || nearest_loop(cs, c, hs) != &hole) continue;
-          std::vector<char> target_s(ss.sample->vertex_count(), 0),
-              target_c(cs.sample->vertex_count(), 0);
-          for (std::uint32_t v : match->vertices)
-            if (occurs_once(match->vertices, v)) target_s[v] = 1;
-          for (std::uint32_t v : hole.vertices)
-            if (occurs_once(hole.vertices, v)) target_c[v] = 1;
+          // Per side (0 source, 1 canonical): the loop, its centre, and the vertices a slit may
+          // end at (those the loop passes once).
+          const Surface* surf[2] = {&ss, &cs};
+          const Loop* loop[2] = {match, &hole};
+          const double* at[2] = {hs, hc};
+          std::vector<char> targets[2];
+          for (int side = 0; side < 2; ++side) {
+            targets[side].assign(surf[side]->sample->vertex_count(), 0);
+            for (std::uint32_t v : loop[side]->vertices)
+              if (occurs_once(loop[side]->vertices, v)) targets[side][v] = 1;
+          }
+          auto direction = [&](int side, std::uint32_t v, double* u) {
+            const double* p = surf[side]->position(v);
+            const double n = dist(p, at[side]);
+            for (int k = 0; k < 3; ++k) u[k] = n > 0 ? (p[k] - at[side][k]) / n : 0;
+          };
           std::vector<std::pair<double, int>> from;
           std::vector<int> seen;
           for (int a : c.anchors) {
@@ -909,16 +920,49 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           if (from.size() > 12) from.resize(12);
           for (const auto& [d0, a] : from) {
             (void)d0;
-            ++tried;
-            const std::vector<std::uint32_t> chain_c = shortest_path_to_any(
-                cs, can_cuts, static_cast<std::uint32_t>(can_anchor_of_all[std::size_t(a)]),
-                target_c, can_of, static_cast<int>(holed));
-            if (chain_c.size() < 2) continue;
-            const std::vector<std::uint32_t> chain_s = shortest_path_to_any(
-                ss, src_cuts, static_cast<std::uint32_t>(src_anchor_of_all[std::size_t(a)]),
-                target_s, src_of, static_cast<int>(sidx));
-            if (chain_s.size() < 2 || !paths_run_alike(ss, chain_s, cs, chain_c)) continue;
-            if (add_new_anchor(chain_s, chain_c)) {
+            const std::vector<char>* cuts[2] = {&src_cuts, &can_cuts};
+            const std::vector<int>* of[2] = {&src_of, &can_of};
+            const int patch[2] = {int(sidx), int(holed)};
+            const int va[2] = {src_anchor_of_all[std::size_t(a)],
+                               can_anchor_of_all[std::size_t(a)]};
+            std::vector<std::uint32_t> chain[2];
+            // Either side may lead (the canonical first): its slit ends at the loop's vertex
+            // nearest along the surface; the follower's at its loop's vertex in the same
+            // direction from the loop's centre. Each side's nearest vertex on its own may lie far
+            // round the loop from the other's (the press's ram bore where its rim cuts the throat
+            // fillet: about 45 degrees, on a corner whose rim nears the plate's face), and another
+            // face round the loop, anchored elsewhere (the bore's wall, by its top rim), is then
+            // twisted between the two.
+            for (int lead : {1, 0}) {
+              ++tried;
+              const int follow = 1 - lead;
+              chain[lead] = shortest_path_to_any(*surf[lead], *cuts[lead],
+                                                 static_cast<std::uint32_t>(va[lead]),
+                                                 targets[lead], *of[lead], patch[lead]);
+              if (chain[lead].size() < 2) continue;
+              double u[3], w[3], best = -2;
+              direction(lead, chain[lead].back(), u);
+              std::vector<char> target(surf[follow]->sample->vertex_count(), 0);
+              std::uint32_t pick = 0;
+              for (std::uint32_t v : loop[follow]->vertices) {
+                if (!targets[follow][v]) continue;
+                direction(follow, v, w);
+                const double cosine = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
+                if (cosine > best) {
+                  best = cosine;
+                  pick = v;
+                }
+              }
+              if (best < -1) continue;  // no vertex the loop passes once
+              target[pick] = 1;
+              chain[follow] = shortest_path_to_any(*surf[follow], *cuts[follow],
+                                                   static_cast<std::uint32_t>(va[follow]), target,
+                                                   *of[follow], patch[follow]);
+              if (chain[follow].size() >= 2 && paths_run_alike(ss, chain[0], cs, chain[1])) break;
+              chain[follow].clear();
+            }
+            if (chain[0].size() < 2 || chain[1].size() < 2) continue;
+            if (add_new_anchor(chain[0], chain[1])) {
               split = true;
               break;
             }
