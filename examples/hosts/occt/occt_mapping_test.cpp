@@ -20,29 +20,27 @@ namespace mapping = cadinterp::mapping;
 
 namespace {
 
-struct Mapped {
-  mapping::PairQuality quality;
-  mapping::MapStats stats;
-};
-
-// Maps the sample at `source` onto the one at `canonical`; fails the test where it cannot.
-Mapped map_pair(const std::string& model_name, const std::string& options,
-                const std::vector<double>& source, const std::vector<double>& canonical) {
+// Maps the sample at `source` onto the one at `canonical` and expects it mapped with no inverted
+// tet, its boundary within `hausdorff` of the source's (relative to the diagonal) and its
+// boundary-condition regions within 1 %.
+void expect_maps(const std::string& model_name, const std::string& options,
+                 const std::vector<double>& source, const std::vector<double>& canonical,
+                 double hausdorff) {
   occt::Model model(model_name, options);
   const builder::Host host(*model.host());
   const builder::Sample a = host.evaluate(source.data()), c = host.evaluate(canonical.data());
-  Mapped r;
-  EXPECT_TRUE(a.feasible) << a.message;
-  EXPECT_TRUE(c.feasible) << c.message;
-  if (!a.feasible || !c.feasible) return r;
+  ASSERT_TRUE(a.feasible) << a.message;
+  ASSERT_TRUE(c.feasible) << c.message;
   EXPECT_FALSE(builder::same_combinatorics(a, c));
   builder::MappedSample m;
+  mapping::MapStats stats;
   std::string why;
-  const bool mapped = mapping::map_sample(a, c, m, why, &r.stats);
-  EXPECT_TRUE(mapped) << why;
-  if (!mapped) return r;
-  r.quality = mapping::measure_pair(a, c, m, mapping::FieldTruth());
-  return r;
+  ASSERT_TRUE(mapping::map_sample(a, c, m, why, &stats)) << why;
+  EXPECT_EQ(stats.inverted, 0u);
+  const mapping::PairQuality q = mapping::measure_pair(a, c, m, mapping::FieldTruth());
+  EXPECT_EQ(q.inverted, 0u);
+  EXPECT_LT(q.hausdorff_max, hausdorff);
+  EXPECT_LT(q.region_area_error, 1e-2);
 }
 
 }  // namespace
@@ -55,12 +53,8 @@ Mapped map_pair(const std::string& model_name, const std::string& options,
 // boundary loops could not be subdivided into disks"). Routed within the fillet instead, the
 // bore stays with the ceiling on both sides.
 TEST(OcctMapping, PressBoreThatCutsTheFilletEdgeStaysWithTheCeiling) {
-  const Mapped r = map_pair("press", "mesh_size=30,quality=2,angle=0.4", {200, 100, 40, 35, 10},
-                            {225, 115, 31.25, 30, 15});
-  EXPECT_EQ(r.stats.inverted, 0u);
-  EXPECT_EQ(r.quality.inverted, 0u);
-  EXPECT_LT(r.quality.hausdorff_max, 1e-3);
-  EXPECT_LT(r.quality.region_area_error, 1e-2);
+  expect_maps("press", "mesh_size=30,quality=2,angle=0.4", {200, 100, 40, 35, 10},
+              {225, 115, 31.25, 30, 15}, 1e-3);
 }
 
 // The press's element around (225, 115, 31.25, 30, 25) mm, corner (200, 100, 40, 35, 30): the
@@ -71,12 +65,8 @@ TEST(OcctMapping, PressBoreThatCutsTheFilletEdgeStaysWithTheCeiling) {
 // 2 tets with all four vertices on the boundary stayed inverted. The corner's slit now ends in
 // the canonical's direction from the rim's centre.
 TEST(OcctMapping, PressBoreRimWithoutAnchorIsSlitInTheSameDirectionOnBothSides) {
-  const Mapped r = map_pair("press", "mesh_size=30,quality=2,angle=0.4", {200, 100, 40, 35, 30},
-                            {225, 115, 31.25, 30, 25});
-  EXPECT_EQ(r.stats.inverted, 0u);
-  EXPECT_EQ(r.quality.inverted, 0u);
-  EXPECT_LT(r.quality.hausdorff_max, 1e-3);
-  EXPECT_LT(r.quality.region_area_error, 1e-2);
+  expect_maps("press", "mesh_size=30,quality=2,angle=0.4", {200, 100, 40, 35, 30},
+              {225, 115, 31.25, 30, 25}, 1e-3);
 }
 
 // The hub's element around (9, 3, 5.625) mm (hole diameter, slot length, rim thickness), corner
@@ -87,9 +77,5 @@ TEST(OcctMapping, PressBoreRimWithoutAnchorIsSlitInTheSameDirectionOnBothSides) 
 // sag by about 1.5e-3 of the diagonal on either mesh, which bounds the Hausdorff distance here;
 // at the host's default size the same element's corners are within 8.7e-4 (src/mapping/README.md).
 TEST(OcctMapping, HubSlitRoundABoltHoleIsMeasuredAlongItsEdges) {
-  const Mapped r = map_pair("hub", "mesh_size=16,quality=2,angle=0.4", {10, 0, 6.5}, {9, 3, 5.625});
-  EXPECT_EQ(r.stats.inverted, 0u);
-  EXPECT_EQ(r.quality.inverted, 0u);
-  EXPECT_LT(r.quality.hausdorff_max, 2e-3);
-  EXPECT_LT(r.quality.region_area_error, 1e-2);
+  expect_maps("hub", "mesh_size=16,quality=2,angle=0.4", {10, 0, 6.5}, {9, 3, 5.625}, 2e-3);
 }
