@@ -171,6 +171,23 @@ int main(int argc, char** argv) {
     o.max_depth = max_depth >= 0 ? max_depth : (full ? 8 : 4);
     row.K = host->parameter_count;
     row.depth = o.max_depth;
+    // A build of a model with many parameters runs for tens of minutes (each element maps its
+    // 2^K corner samples): a line at most once a minute says it is alive and how far it got.
+    struct Progress {
+      const std::string* name;
+      double next = 60;
+    } progress{&name};
+    o.progress_user = &progress;
+    o.progress = [](void* user, const cadinterp_progress* p) {
+      auto* at = static_cast<Progress*>(user);
+      if (p->seconds >= at->next) {
+        std::fprintf(stderr, "  %s: %d samples done, %d queued, %d elements, %.0f s\n",
+                     at->name->c_str(), p->samples_done, p->samples_queued, p->elements,
+                     p->seconds);
+        at->next = p->seconds + 60;
+      }
+      return 0;
+    };
     const std::string path = dir + "/occt_results_" + name + ".cadi";
     const cadinterp::builder::BuildOutcome b = cadinterp::builder::build_asset(*host, o, path);
     row.samples = b.report.samples;
