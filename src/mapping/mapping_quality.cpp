@@ -50,7 +50,29 @@ PairQuality measure_pair(const builder::Sample& source, const builder::Sample& c
       builder::vertex_distances(source.vertices, source.triangles, map);
   d.insert(d.end(), back.begin(), back.end());
   for (double& x : d) x /= diag;
-  q.hausdorff_max = d.empty() ? 0 : *std::max_element(d.begin(), d.end());
+  if (!d.empty()) {
+    const std::size_t at =
+        static_cast<std::size_t>(std::max_element(d.begin(), d.end()) - d.begin());
+    q.hausdorff_max = d[at];
+    // vertex_distances gives one value per boundary vertex (one referenced by a triangle) of
+    // its mesh, in vertex order: the mapped ones first.
+    const std::size_t mapped_count = d.size() - back.size();
+    const bool from_source = at >= mapped_count;
+    const builder::Sample& mesh = from_source ? source : canonical;
+    const std::vector<double>& x = from_source ? source.vertices : mapped.vertices;
+    std::vector<char> used(x.size() / 3, 0);
+    for (std::uint32_t i : mesh.triangles) used[i] = 1;
+    std::size_t v = 0;
+    for (std::size_t k = from_source ? at - mapped_count : at;; ++v)
+      if (used[v] && k-- == 0) break;
+    for (int a = 0; a < 3; ++a) q.hausdorff_at[a] = x[3 * v + std::size_t(a)];
+    q.hausdorff_at_source = from_source;
+    for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+      if (mesh.triangles[i] == v) {
+        q.hausdorff_tag = mesh.triangle_tags[i / 3];
+        break;
+      }
+  }
   q.hausdorff_p99 = percentile(d, 0.99);
 
   const TetQuality t = tet_quality(mapped.vertices, canonical.tets);

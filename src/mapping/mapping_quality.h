@@ -19,6 +19,12 @@ using FieldTruth = std::function<bool(int field, const double* p, double* value)
 struct PairQuality {
   double hausdorff_max = 0;  ///< symmetric Hausdorff(mapped boundary, source boundary) / diag
   double hausdorff_p99 = 0;  ///< 99th percentile of the vertex distances (both ways) / diag
+  /// Where hausdorff_max is reached: the vertex's position, whether it is a source vertex (far
+  /// from the mapped boundary: a canonical triangle spans a bend of the source) or a mapped one
+  /// (off the source boundary), and the face tag of a triangle at it (its own mesh's tags).
+  double hausdorff_at[3] = {0, 0, 0};
+  bool hausdorff_at_source = false;
+  std::int32_t hausdorff_tag = -1;
   double min_scaled_jacobian = 0;
   std::size_t inverted = 0;
   double region_area_error = 0;  ///< max over regions |area mapped / area source - 1|

@@ -131,6 +131,12 @@ int pairs(const std::vector<std::string>& args) {
          "map only pairs across a B-rep topology change ('T' or 'E' in the topo column), drawing "
          "up to 200 x N random pairs until N are found",
          &across);
+  bool where = false;
+  p.flag("where", 0,
+         "after each pair, where its Hausdorff maximum lies: the vertex, its face tag, and "
+         "whether it is a source vertex far from the mapped boundary or a mapped one off the "
+         "source's",
+         &where);
   p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
   p.option("host", 0, "LIB.so",
            "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
@@ -284,6 +290,10 @@ int pairs(const std::vector<std::string>& args) {
     std::printf("%5d %6zu %6zu %4c %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n", i,
                 a.vertex_count(), c.vertex_count(), topo, ms, q.hausdorff_max, q.hausdorff_p99,
                 q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax, f99);
+    if (where)
+      std::printf("      Hausdorff max at (%.4g, %.4g, %.4g): %s vertex on face tag %d\n",
+                  q.hausdorff_at[0], q.hausdorff_at[1], q.hausdorff_at[2],
+                  q.hausdorff_at_source ? "a source" : "a mapped", q.hausdorff_tag);
     times.push_back(ms);
     sizes_v.push_back(static_cast<double>(c.vertex_count()));
     haus.push_back(q.hausdorff_max);

@@ -401,6 +401,11 @@ TEST(MeshMapper, SmoothReconstructionBringsTheBoundaryNearerCurvedFaces) {
       EXPECT_EQ(q.inverted, 0u);
       haus[smooth] = q.hausdorff_max;
       const builder::SurfaceIndex on(source.vertices, source.triangles);
+      // Where the maximum lies: a vertex of the mesh it names, that far from the other surface.
+      const builder::SurfaceIndex mapped(m.vertices, canonical.triangles);
+      EXPECT_NEAR((q.hausdorff_at_source ? mapped : on).distance(q.hausdorff_at),
+                  q.hausdorff_max * source.bbox_diagonal(), 1e-12 * source.bbox_diagonal());
+      EXPECT_GE(q.hausdorff_tag, 0);
       off[smooth] = 0;
       for (std::uint32_t v : canonical.triangles)
         off[smooth] = std::max(off[smooth], on.distance(&m.vertices[3 * v]));
