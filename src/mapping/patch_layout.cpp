@@ -141,19 +141,22 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
     const int a = find_root(parent, h / 3), b = find_root(parent, t / 3);
     if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
   }
-  // Patches numbered by their first triangle: deterministic.
-  std::vector<int> patch_of(static_cast<std::size_t>(F));
-  std::map<int, int> number;
+  // Patches numbered by their first triangle: deterministic. `slot`: each triangle's place in
+  // its patch's (increasing) list, so that half-edge 3 f + k is the patch's corner 3 slot + k.
+  // (Vectors, not maps: a mapping builds the layouts a few hundred times.)
+  std::vector<int> patch_of(static_cast<std::size_t>(F)), number(static_cast<std::size_t>(F), -1),
+      slot(static_cast<std::size_t>(F));
   out.clear();
   for (int f = 0; f < F; ++f) {
-    const int r = find_root(parent, f);
-    auto it = number.find(r);
-    if (it == number.end()) {
-      it = number.emplace(r, static_cast<int>(out.size())).first;
+    int& n = number[static_cast<std::size_t>(find_root(parent, f))];
+    if (n < 0) {
+      n = static_cast<int>(out.size());
       out.emplace_back();
     }
-    patch_of[static_cast<std::size_t>(f)] = it->second;
-    out[static_cast<std::size_t>(it->second)].triangles.push_back(f);
+    patch_of[static_cast<std::size_t>(f)] = n;
+    std::vector<int>& list = out[static_cast<std::size_t>(n)].triangles;
+    slot[static_cast<std::size_t>(f)] = static_cast<int>(list.size());
+    list.push_back(f);
   }
 
   for (std::size_t pi = 0; pi < out.size(); ++pi) {
@@ -168,13 +171,13 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
       return t >= 0 && patch_of[static_cast<std::size_t>(t / 3)] == static_cast<int>(pi);
     };
     auto next = [](int h) { return 3 * (h / 3) + (h % 3 + 1) % 3; };
-    std::map<int, int> corner;  // half-edge of the patch -> its index among the patch's corners
-    for (int f : p.triangles)
-      for (int k = 0; k < 3; ++k) corner.emplace(3 * f + k, static_cast<int>(corner.size()));
-    std::vector<int> cparent(corner.size());
+    // A half-edge of the patch -> its index among the patch's corners.
+    auto corner = [&](int h) { return 3 * slot[static_cast<std::size_t>(h / 3)] + h % 3; };
+    const std::size_t corners = 3 * p.triangles.size();
+    std::vector<int> cparent(corners);
     std::iota(cparent.begin(), cparent.end(), 0);
     auto unite = [&](int h1, int h2) {
-      const int a = find_root(cparent, corner.at(h1)), b = find_root(cparent, corner.at(h2));
+      const int a = find_root(cparent, corner(h1)), b = find_root(cparent, corner(h2));
       if (a != b) cparent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
     };
     for (int f : p.triangles)
@@ -186,21 +189,22 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
         unite(next(h), t);
       }
     // Local vertices numbered by first corner, in the patch's triangle order: deterministic.
-    std::map<int, int> local_of_root;
-    p.corner_local.assign(corner.size(), -1);
+    std::vector<int> local_of_root(corners, -1);
+    p.corner_local.assign(corners, -1);
     p.local_vertices.clear();
-    for (const auto& [h, ci] : corner) {
-      const int r = find_root(cparent, ci);
-      auto it = local_of_root.find(r);
-      if (it == local_of_root.end()) {
-        it = local_of_root.emplace(r, static_cast<int>(p.local_vertices.size())).first;
-        p.local_vertices.push_back(s.from(h));
+    for (std::size_t ci = 0; ci < corners; ++ci) {
+      int& local =
+          local_of_root[static_cast<std::size_t>(find_root(cparent, static_cast<int>(ci)))];
+      if (local < 0) {
+        local = static_cast<int>(p.local_vertices.size());
+        p.local_vertices.push_back(s.from(3 * p.triangles[ci / 3] + static_cast<int>(ci % 3)));
       }
-      p.corner_local[static_cast<std::size_t>(ci)] = it->second;
+      p.corner_local[ci] = local;
     }
-    auto local_of = [&](int h) { return p.corner_local[static_cast<std::size_t>(corner.at(h))]; };
-    std::map<int, int> outgoing;  // local vertex -> its boundary half-edge (ordered: loops are
-                                  // traced deterministically)
+    auto local_of = [&](int h) { return p.corner_local[static_cast<std::size_t>(corner(h))]; };
+    const std::size_t local_count = p.local_vertices.size();
+    // Local vertex -> its boundary half-edge (-1: none); loops are traced from the smallest.
+    std::vector<int> outgoing(local_count, -1);
     int border = 0;
     bool pinched = false;
     for (int f : p.triangles)
@@ -208,9 +212,12 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
         const int h = 3 * f + k;
         if (in_patch(h) && !cuts[static_cast<std::size_t>(h)]) continue;
         ++border;
-        if (!outgoing.emplace(local_of(h), h).second) pinched = true;
+        int& out_h = outgoing[static_cast<std::size_t>(local_of(h))];
+        if (out_h >= 0)
+          pinched = true;
+        else
+          out_h = h;
       }
-    const std::size_t local_count = p.local_vertices.size();
     if (border == 0 || pinched) {
       why = describe(p, s) + " is not a disk (" +
             (pinched ? "pinched boundary" : "a closed surface without boundary") + ")";
@@ -218,22 +225,22 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
     }
     // Trace every loop, each from its smallest vertex.
     std::vector<Loop> loops;
-    std::map<int, char> visited;
-    for (const auto& [start, h0] : outgoing) {
-      (void)h0;
-      if (visited.count(start)) continue;
+    std::vector<char> visited(local_count, 0);
+    for (int start = 0; start < static_cast<int>(local_count); ++start) {
+      if (outgoing[static_cast<std::size_t>(start)] < 0 || visited[static_cast<std::size_t>(start)])
+        continue;
       Loop l;
       int v = start;
       do {
-        visited.emplace(v, 1);
-        auto it = outgoing.find(v);
-        if (it == outgoing.end() || l.vertices.size() > outgoing.size()) {
+        visited[static_cast<std::size_t>(v)] = 1;
+        const int h = outgoing[static_cast<std::size_t>(v)];
+        if (h < 0 || l.vertices.size() > static_cast<std::size_t>(border)) {
           why = describe(p, s) + " has a broken boundary loop";
           return false;
         }
-        l.vertices.push_back(s.from(it->second));
+        l.vertices.push_back(s.from(h));
         l.local.push_back(v);
-        v = local_of(next(it->second));
+        v = local_of(next(h));
       } while (v != start);
       if (!measure_loop(s, anchor_positions, tolerance, l) && !allow_holes) {
         why = describe(p, s) + " has a boundary loop without matched control point";
