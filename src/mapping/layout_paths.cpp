@@ -6,7 +6,6 @@
 #include <limits>
 #include <map>
 #include <queue>
-#include <unordered_map>
 
 namespace cadinterp::mapping {
 
@@ -173,15 +172,9 @@ std::vector<std::uint32_t> shortest_path_to_any(const Surface& s, const std::vec
 }
 
 void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts) {
-  std::unordered_map<std::uint64_t, int> directed;
-  const int H = 3 * s.triangles();
-  for (int h = 0; h < H; ++h) directed.emplace((std::uint64_t(s.from(h)) << 32) | s.to(h), h);
   for (std::size_t i = 0; i + 1 < chain.size(); ++i)
-    for (const auto& [u, w] :
-         {std::make_pair(chain[i], chain[i + 1]), std::make_pair(chain[i + 1], chain[i])}) {
-      auto it = directed.find((std::uint64_t(u) << 32) | w);
-      if (it != directed.end()) cuts[static_cast<std::size_t>(it->second)] = 1;
-    }
+    for (const int h : {s.half_edge(chain[i], chain[i + 1]), s.half_edge(chain[i + 1], chain[i])})
+      if (h >= 0) cuts[static_cast<std::size_t>(h)] = 1;
 }
 
 }  // namespace cadinterp::mapping

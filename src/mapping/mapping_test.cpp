@@ -488,7 +488,7 @@ TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
   }
   src_over.push_back(s1);
   for (auto* c : {&can_over, &can_fine, &can_under}) c->push_back(moved(10, 0));
-  const mapping::Surface ss{&src, {}}, cs{&can, {}};
+  const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
   EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_over));
   EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_fine));
   EXPECT_TRUE(mapping::paths_run_alike(cs, can_over, ss, src_over));

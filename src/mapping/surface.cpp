@@ -1,7 +1,7 @@
 #include "mapping/surface.h"
 
 #include <cmath>
-#include <unordered_map>
+#include <vector>
 
 namespace cadinterp::mapping {
 
@@ -9,20 +9,22 @@ bool build_surface(const builder::Sample& s, Surface& out, std::string& why) {
   out.sample = &s;
   const int H = static_cast<int>(3 * s.triangle_count());
   out.twin.assign(static_cast<std::size_t>(H), -1);
-  // Directed edge (a, b) -> half-edge; an oriented manifold has each direction at most once.
-  std::unordered_map<std::uint64_t, int> directed;
-  directed.reserve(static_cast<std::size_t>(H));
-  auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; };
+  // Outgoing half-edges per vertex (counting sort by start vertex, in half-edge order).
+  const std::size_t V = s.vertex_count();
+  out.out_start.assign(V + 1, 0);
+  for (int h = 0; h < H; ++h) ++out.out_start[out.from(h) + 1];
+  for (std::size_t v = 0; v < V; ++v) out.out_start[v + 1] += out.out_start[v];
+  out.out_edges.assign(static_cast<std::size_t>(H), 0);
+  std::vector<int> fill(out.out_start.begin(), out.out_start.end() - 1);
+  for (int h = 0; h < H; ++h) out.out_edges[static_cast<std::size_t>(fill[out.from(h)]++)] = h;
+  // An oriented manifold has each directed edge at most once.
   for (int h = 0; h < H; ++h) {
-    if (!directed.emplace(key(out.from(h), out.to(h)), h).second) {
+    if (out.half_edge(out.from(h), out.to(h)) != h) {
       why = "boundary surface is not an oriented manifold (edge " + std::to_string(out.from(h)) +
             "-" + std::to_string(out.to(h)) + " used twice in one direction)";
       return false;
     }
-  }
-  for (int h = 0; h < H; ++h) {
-    auto it = directed.find(key(out.to(h), out.from(h)));
-    if (it != directed.end()) out.twin[static_cast<std::size_t>(h)] = it->second;
+    out.twin[static_cast<std::size_t>(h)] = out.half_edge(out.to(h), out.from(h));
   }
   return true;
 }

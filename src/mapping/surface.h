@@ -22,6 +22,15 @@ struct SurfacePoint {
 struct Surface {
   const builder::Sample* sample = nullptr;
   std::vector<int> twin;  ///< per half-edge: the opposite half-edge, -1 on an open border
+  /// Vertex v's outgoing half-edges are out_edges[out_start[v] .. out_start[v + 1]).
+  std::vector<int> out_start, out_edges;
+  /// The half-edge from a to b, or -1.
+  int half_edge(std::uint32_t a, std::uint32_t b) const {
+    for (int i = out_start[a]; i < out_start[a + 1]; ++i)
+      if (to(out_edges[static_cast<std::size_t>(i)]) == b)
+        return out_edges[static_cast<std::size_t>(i)];
+    return -1;
+  }
   std::uint32_t from(int h) const { return sample->triangles[static_cast<std::size_t>(h)]; }
   std::uint32_t to(int h) const {
     const int f = h / 3, k = h % 3;
