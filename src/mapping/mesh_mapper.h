@@ -101,7 +101,8 @@ class MeshMapper final : public builder::Mapper {
   // merged across a topology change separated again, traced paths measured along geodesics. v4:
   // folded flat patches unfolded in their plane, tangled interiors untangled as a whole. v5: a
   // one-sided edge routed so that holes keep their side, detouring paths measured along edges.
-  const char* name() const override { return "mesh-v5"; }
+  // v6: a loop without anchor slit in the same direction from its centre on both sides.
+  const char* name() const override { return "mesh-v6"; }
 };
 
 }  // namespace cadinterp::mapping
