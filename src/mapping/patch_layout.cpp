@@ -5,7 +5,6 @@
 #include <iterator>
 #include <map>
 #include <numeric>
-#include <unordered_map>
 
 namespace cadinterp::mapping {
 
