@@ -11,41 +11,13 @@
 #include <vector>
 
 #include "mapping/interior_solve.h"
+#include "mapping/kuhn_cube.h"
 
 namespace {
 
 using namespace cadinterp;
 
-// The unit cube on an n^3 grid, each cell split into the 6 Kuhn tets around its main diagonal,
-// all positively oriented; `fixed` marks the boundary vertices.
-struct Cube {
-  std::vector<double> x;
-  std::vector<std::uint32_t> tets;
-  std::vector<char> fixed;
-  explicit Cube(int n) {
-    auto id = [n](int i, int j, int k) { return std::uint32_t((i * (n + 1) + j) * (n + 1) + k); };
-    for (int i = 0; i <= n; ++i)
-      for (int j = 0; j <= n; ++j)
-        for (int k = 0; k <= n; ++k) {
-          x.insert(x.end(), {double(i) / n, double(j) / n, double(k) / n});
-          fixed.push_back(i == 0 || j == 0 || k == 0 || i == n || j == n || k == n);
-        }
-    const int order[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
-        for (int k = 0; k < n; ++k)
-          for (const auto& o : order) {
-            int c[3] = {i, j, k};
-            std::uint32_t t[4] = {id(i, j, k), 0, 0, 0};
-            for (int s = 0; s < 3; ++s) {
-              ++c[o[s]];
-              t[s + 1] = id(c[0], c[1], c[2]);
-            }
-            if (mapping::six_volume(x, t) < 0) std::swap(t[2], t[3]);
-            tets.insert(tets.end(), t, t + 4);
-          }
-  }
-};
+using Cube = mapping::KuhnCube;
 
 // The cube's positions with every interior vertex reflected through the centre.
 std::vector<double> turned_inside_out(const Cube& cube) {
@@ -98,15 +70,7 @@ TEST(FoldoverFree, StopsWithinItsEvaluationBudget) {
 // untangler starts from there.
 TEST(FoldoverFree, HarmonicInteriorOfATwistedBoxIsUntangled) {
   const Cube cube(6);
-  std::vector<double> x = cube.x;
-  const double turn = 360.0 * std::acos(-1.0) / 180.0;
-  for (std::size_t v = 0; v < cube.fixed.size(); ++v) {
-    if (!cube.fixed[v]) continue;
-    const double a = turn * cube.x[3 * v + 2], px = cube.x[3 * v] - 0.5,
-                 py = cube.x[3 * v + 1] - 0.5;
-    x[3 * v] = 0.5 + std::cos(a) * px - std::sin(a) * py;
-    x[3 * v + 1] = 0.5 + std::sin(a) * px + std::cos(a) * py;
-  }
+  std::vector<double> x = mapping::twisted_boundary(cube, 360);
   std::string why;
   ASSERT_TRUE(mapping::harmonic_interior(cube.x, cube.tets, cube.fixed, x, why)) << why;
   const std::size_t before = inverted(x, cube.tets);
