@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <deque>
 
 namespace cadinterp::mapping {
@@ -29,6 +31,45 @@ Mat<D> edges(const std::vector<double>& x, const std::uint32_t* q) {
     for (int a = 0; a < D; ++a)
       m(a, i) =
           x[D * std::size_t(q[i + 1]) + std::size_t(a)] - x[D * std::size_t(q[0]) + std::size_t(a)];
+  return m;
+}
+
+// c^(-2/D), the shape term's factor, for c > 0. For tets, y = c^(-1/3) from a bit-level first
+// guess (the exponent divided by -3, a few percent off) and Newton's iteration
+// y <- y (4 - c y^3) / 3, which needs no division and doubles the digits each step (four steps
+// reach rounding). libm's pow and cbrt (with frexp and scalbn) were a fifth and a quarter of the
+// untangler's time, and with the divisions of the energy's terms most of the rest
+// (mapping_bench, README round 13).
+template <int D>
+double inverse_power_p(double c, double inverse_c);
+template <>
+inline double inverse_power_p<3>(double c, double) {
+  if (!(c > 1e-280 && c < 1e280)) return 1.0 / (std::cbrt(c) * std::cbrt(c));
+  std::uint64_t bits;
+  std::memcpy(&bits, &c, sizeof bits);
+  bits = 0x553EF0FF289DD796ull - bits / 3;
+  double y;
+  std::memcpy(&y, &bits, sizeof y);
+  const double third = c / 3;
+  for (int i = 0; i < 4; ++i) y *= 4.0 / 3.0 - third * (y * y * y);
+  return y * y;
+}
+template <>
+inline double inverse_power_p<2>(double, double inverse_c) {
+  return inverse_c;
+}
+
+// a b, spelled out (b also a transpose expression): Eigen's fixed-size products were not inlined
+// here and took a quarter of the untangler's time.
+template <int D, class B>
+inline Mat<D> product(const Mat<D>& a, const B& b) {
+  Mat<D> m;
+  for (int i = 0; i < D; ++i)
+    for (int k = 0; k < D; ++k) {
+      double sum = 0;
+      for (int j = 0; j < D; ++j) sum += a(i, j) * b(j, k);
+      m(i, k) = sum;
+    }
   return m;
 }
 
@@ -109,20 +150,22 @@ class Energy {
     double energy = 0, smallest = HUGE_VAL;
     for (std::size_t k = 0; k < active_.size(); ++k) {
       const std::uint32_t* q = &elements_[(D + 1) * std::size_t(active_[k])];
-      const Mat<D> j = edges<D>(x_, q) * inverse_[k];
+      const Mat<D> j = product<D>(edges<D>(x_, q), inverse_[k]);
       const double d = j.determinant();
       smallest = std::min(smallest, d);
-      const double c = chi(d, eps);
+      const double root = std::sqrt(eps * eps + d * d);
+      const double c = 0.5 * (d + root);  // chi(D)
+      const double ic = 1 / c;
       const double tr = j.squaredNorm();
-      const double cp = std::pow(c, p);
-      energy += weight_[k] * (0.5 * tr / (D * cp) + 0.5 * (d * d + 1) / (2 * c));
+      const double icp = inverse_power_p<D>(c, ic);  // chi^(-2/D)
+      energy += weight_[k] * (0.5 / D * tr * icp + 0.25 * (d * d + 1) * ic);
       if (!grad) continue;
-      const double dchi = c / std::sqrt(eps * eps + d * d);  // chi'(D)
-      const Mat<D> g_j = (1.0 / (D * cp)) * j + (-p * tr * dchi / (2 * D * cp * c) + 0.5 * d / c -
-                                                 0.25 * (d * d + 1) * dchi / (c * c)) *
-                                                    cofactor(j);
+      const double dchi = c / root;  // chi'(D)
+      const Mat<D> g_j = (icp / D) * j + (-p / (2 * D) * tr * dchi * icp * ic + 0.5 * d * ic -
+                                          0.25 * (d * d + 1) * dchi * ic * ic) *
+                                             cofactor(j);
       // J = E S^-1 (E the edge matrix), so dF/dE = dF/dJ S^-T.
-      const Mat<D> g_e = weight_[k] * g_j * inverse_[k].transpose();
+      const Mat<D> g_e = product<D>(Mat<D>(weight_[k] * g_j), inverse_[k].transpose());
       for (int i = 0; i < D; ++i) add(*grad, q[i + 1], g_e.col(i));
       add(*grad, q[0], -g_e.rowwise().sum());
     }

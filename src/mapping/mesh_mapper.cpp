@@ -1844,6 +1844,12 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   if (q.inverted > 0 && options.foldover_free && !options.foldover_free_early) {
     // Last resort (MapOptions::foldover_free): from the best state so far.
     untangle_whole(q);
+    // And the boundary untangling once more, from the untangled interior: a tet left inverted
+    // across a boundary triangle whose vertices the first passes could not move while the
+    // interior around it was still folded (press pair 128 with the round-13 energy: 1 tet left,
+    // none after this).
+    if (q.inverted > 0 && !folded && options.boundary_untangle_passes > 0 && !untangle_surface())
+      return false;
   }
   if (stats) {
     stats->matched_points = corr.anchors.size();

@@ -101,8 +101,9 @@ class MeshMapper final : public builder::Mapper {
   // merged across a topology change separated again, traced paths measured along geodesics. v4:
   // folded flat patches unfolded in their plane, tangled interiors untangled as a whole. v5: a
   // one-sided edge routed so that holes keep their side, detouring paths measured along edges.
-  // v6: a loop without anchor slit in the same direction from its centre on both sides.
-  const char* name() const override { return "mesh-v6"; }
+  // v6: a loop without anchor slit in the same direction from its centre on both sides. v7: the
+  // untangler's energy evaluated with other rounding, the boundary untangled again after it.
+  const char* name() const override { return "mesh-v7"; }
 };
 
 }  // namespace cadinterp::mapping
