@@ -37,6 +37,7 @@ ctest --preset release -j "$JOBS"
 step "release: benchmark smoke runs (measure nothing, prove the benchmarks run)"
 ./build/release/src/core/core_bench --benchmark_min_time=0.001 >/dev/null
 ./build/release/src/runtime/runtime_probe_bench --benchmark_min_time=0.001 >/dev/null
+./build/release/src/mapping/mapping_bench --benchmark_min_time=0.001 >/dev/null
 ./build/release/examples/physics/physics_benchmark --benchmark_min_time=0.001 \
   --benchmark_filter='order1/1377' >/dev/null
 
