@@ -38,8 +38,7 @@ Mat<D> edges(const std::vector<double>& x, const std::uint32_t* q) {
 // guess (the exponent divided by -3, a few percent off) and Newton's iteration
 // y <- y (4 - c y^3) / 3, which needs no division and doubles the digits each step (four steps
 // reach rounding). libm's pow and cbrt (with frexp and scalbn) were a fifth and a quarter of the
-// untangler's time, and with the divisions of the energy's terms most of the rest
-// (mapping_bench, README round 13).
+// untangler's time (profiles of press pair 88 and mapping_bench, README round 13).
 template <int D>
 double inverse_power_p(double c, double inverse_c);
 template <>
