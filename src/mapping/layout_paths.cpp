@@ -300,7 +300,7 @@ std::vector<std::array<double, 3>> resample_chain(const Surface& s,
 }  // namespace
 
 bool paths_run_alike(const Surface& sa, const std::vector<std::uint32_t>& a, const Surface& sb,
-                     const std::vector<std::uint32_t>& b) {
+                     const std::vector<std::uint32_t>& b, double slack) {
   if (a.size() < 2 || b.size() < 2) return false;
   double la = 0, lb = 0;
   const auto pa = resample_chain(sa, a, la), pb = resample_chain(sb, b, lb);
@@ -316,7 +316,7 @@ bool paths_run_alike(const Surface& sa, const std::vector<std::uint32_t>& a, con
     }
     worst = std::max(worst, std::sqrt(off2));
   }
-  return worst <= 0.25 * std::max(la, lb);
+  return worst <= std::max(0.25 * std::max(la, lb), slack);
 }
 
 }  // namespace cadinterp::mapping

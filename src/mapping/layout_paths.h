@@ -94,10 +94,11 @@ std::vector<int> anchor_vertices(const Surface& s, const std::vector<const doubl
 /// side and round its neighbour on the other, 4010 inverted tets over the flange). Both chains
 /// are resampled at 17 equal arc-length fractions t; where the shapes differ only by the
 /// parameter change, point t of `b` is point t of `a` moved as the ends moved (linearly in t), up
-/// to the meshes' zigzag. True when no point is off by more than a quarter of the longer path.
-/// Chains of fewer than two vertices never run alike.
+/// to the meshes' zigzag. True when no point is off by more than a quarter of the longer path,
+/// or by no more than `slack` (from a caller that knows how far apart paths that differ in kind
+/// run). Chains of fewer than two vertices never run alike.
 bool paths_run_alike(const Surface& sa, const std::vector<std::uint32_t>& a, const Surface& sb,
-                     const std::vector<std::uint32_t>& b);
+                     const std::vector<std::uint32_t>& b, double slack = 0);
 
 /// Marks both half-edges of every edge along `chain` as cut.
 void cut_along(const Surface& s, const std::vector<std::uint32_t>& chain, std::vector<char>& cuts);

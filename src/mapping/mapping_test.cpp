@@ -495,6 +495,24 @@ TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
   EXPECT_FALSE(mapping::paths_run_alike(ss, src_over, cs, can_under));
   EXPECT_FALSE(mapping::paths_run_alike(cs, can_under, ss, src_over));
   EXPECT_FALSE(mapping::paths_run_alike(ss, {s0}, cs, can_over));
+  // A caller's slack of a quarter of the hole's diameter (1) still tells over from under.
+  EXPECT_FALSE(mapping::paths_run_alike(ss, src_over, cs, can_under, 1.0));
+}
+
+// A slit across a strip one triangle wide (the OpenCASCADE hub's rim face at a chord angle of
+// 0.2) is one edge on the canonical; on the source, with a vertex inside the strip, it bends by
+// 2.65 on a path of 8.6, more than a quarter of it. Such paths run alike only within a caller's
+// slack of at least that bend.
+TEST(LayoutPaths, SlackAcceptsAPathBentByTheMesh) {
+  builder::Sample src, can;
+  src.vertices = {53.16, 0, 40, 56.45, -2.65, 40, 60, 0, 40};
+  can.vertices = {55.27, 0, 40, 60, 0, 40};
+  const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
+  const std::vector<std::uint32_t> bent{0, 1, 2}, straight{0, 1};
+  EXPECT_FALSE(mapping::paths_run_alike(ss, bent, cs, straight));
+  EXPECT_FALSE(mapping::paths_run_alike(ss, bent, cs, straight, 2.0));
+  EXPECT_TRUE(mapping::paths_run_alike(ss, bent, cs, straight, 3.0));
+  EXPECT_TRUE(mapping::paths_run_alike(cs, straight, ss, bent, 3.0));
 }
 
 // P1-harmonic extension reproduces affine maps exactly (a mirror image here), and the quality

@@ -102,8 +102,9 @@ class MeshMapper final : public builder::Mapper {
   // folded flat patches unfolded in their plane, tangled interiors untangled as a whole. v5: a
   // one-sided edge routed so that holes keep their side, detouring paths measured along edges.
   // v6: a loop without anchor slit in the same direction from its centre on both sides. v7: the
-  // untangler's energy evaluated with other rounding, the boundary untangled again after it.
-  const char* name() const override { return "mesh-v7"; }
+  // untangler's energy evaluated with other rounding, the boundary untangled again after it. v8:
+  // a slit to a loop without anchor may start beside the first loop's anchors, at a new one.
+  const char* name() const override { return "mesh-v8"; }
 };
 
 }  // namespace cadinterp::mapping

@@ -79,3 +79,32 @@ TEST(OcctMapping, PressBoreRimWithoutAnchorIsSlitInTheSameDirectionOnBothSides) 
 TEST(OcctMapping, HubSlitRoundABoltHoleIsMeasuredAlongItsEdges) {
   expect_maps("hub", "mesh_size=16,quality=2,angle=0.4", {10, 0, 6.5}, {9, 3, 5.625}, 2e-3);
 }
+
+// The same element at half the chord angle (0.2), corner (8, 0, 4.75), across the hub's switch:
+// the flange face with three bolt-hole rims that carry no anchor. On the centre's mesh every
+// wedge of that patch at each of its 16 first-loop anchors is a single triangle between two loop
+// edges, so no slit could leave an anchor ("no paths split a patch with a hole the same way on
+// both sides (0 candidates tried)"). The slit now starts at a first-loop vertex beside them,
+// which becomes a new anchor at the same fraction of its CAD path on both sides.
+TEST(OcctMapping, HubSlitStartsBesideAnchorsWhoseWedgesAreSingleTriangles) {
+  expect_maps("hub", "mesh_size=16,quality=2,angle=0.2", {8, 0, 4.75}, {9, 3, 5.625}, 1e-3);
+}
+
+// The hub at the host's default size and a chord angle of 0.2 (default 0.3), a random pair across
+// the switch (seed 1, pair 27 of `cadinterp-mapping-report pairs -m hub --host-options angle=0.2`):
+// after four slits, one anchor of the flange's first loop had an uncut edge into the patch, far
+// round the flange; its slits to the three bolt-hole rims left found no path on the source or
+// left layouts that differ. A slit from the loop vertex nearest a rim, made a new anchor, maps.
+TEST(OcctMapping, HubSlitStartsBesideAnchorsWhenSlitsFromTheFarAnchorDiffer) {
+  expect_maps("hub", "angle=0.2", {13.8541, 10.7163, 8.31544}, {11.209, 0.476202, 8.69713}, 1e-3);
+}
+
+// The same host options, pair 96 of that sequence: the rim's top face, an annulus, is one row of
+// triangles on the centre's mesh, where the slit from the rim to the bore is one edge; on the
+// corner's a vertex lies inside the row and its slit bends by 2.65 mm on 8.6 mm, more than a
+// quarter of the path, so no slit ran alike. In an annulus two slits differ in kind only by their
+// winding round the hole, about the hole's diameter apart (110 mm here): within a quarter of that
+// they now run alike.
+TEST(OcctMapping, HubSlitAcrossAnAnnulusOneTriangleWideRunsAlike) {
+  expect_maps("hub", "angle=0.2", {9.38213, 9.66734, 6.83686}, {7.98021, 0.129262, 4.72844}, 1e-3);
+}
