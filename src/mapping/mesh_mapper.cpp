@@ -873,6 +873,31 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       }
       return t;
     };
+    // The vertex of patch `to`'s first loop at the fraction of the CAD path between the same two
+    // anchors that vertex v has on patch `from`'s (the nearest one, among those `allowed` marks
+    // where given), so that a new anchor lies on the same CAD path on both sides; -1 where v is
+    // not strictly between two anchors or `to` has no such vertex.
+    auto at_same_fraction = [&](const Patch& from, const std::vector<int>& from_anchor_of,
+                                std::uint32_t v, const Patch& to,
+                                const std::vector<int>& to_anchor_of,
+                                const std::vector<char>* allowed) -> std::int64_t {
+      const auto [A, B] = segment_of(from, v);
+      std::vector<std::pair<std::uint32_t, double>> at_from, at_to;
+      loop_targets(from, from_anchor_of, A, B, &at_from);
+      loop_targets(to, to_anchor_of, A, B, &at_to);
+      double want = -1;
+      for (const auto& [x, f] : at_from)
+        if (x == v) want = f;
+      if (want < 0) return -1;
+      double best = std::numeric_limits<double>::infinity();
+      std::int64_t pick = -1;
+      for (const auto& [x, f] : at_to)
+        if ((!allowed || (*allowed)[x]) && std::fabs(f - want) < best) {
+          best = std::fabs(f - want);
+          pick = x;
+        }
+      return pick;
+    };
     const int first_pass = c.holes.size() > 1 ? 0 : 1;
     for (int pass = first_pass; pass < 3 && !split; ++pass)
       for (const auto& [near, hole_index] : hole_order) {
@@ -1066,21 +1091,9 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             for (const auto& [d0, v] : starts) {
               (void)d0;
               if (started == 6) break;
-              const auto [A, B] = segment_of(c, v);
-              std::vector<std::pair<std::uint32_t, double>> at_can, at_src;
-              loop_targets(c, can_anchor_of, A, B, &at_can);
-              loop_targets(sp[sidx], src_anchor_of, A, B, &at_src);
-              double want = -1;
-              for (const auto& [x, f] : at_can)
-                if (x == v) want = f;
-              double best = std::numeric_limits<double>::infinity();
-              std::int64_t pick = -1;
-              for (const auto& [x, f] : at_src)
-                if (leaves[0][x] && std::fabs(f - want) < best) {
-                  best = std::fabs(f - want);
-                  pick = x;
-                }
-              if (want < 0 || pick < 0) continue;
+              const std::int64_t pick =
+                  at_same_fraction(c, can_anchor_of, v, sp[sidx], src_anchor_of, &leaves[0]);
+              if (pick < 0) continue;
               ++started;
               const int a = push_anchor(static_cast<std::uint32_t>(pick), v);
               if (slit_from(a)) {
@@ -1279,25 +1292,17 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
               // 9.06e-4 so), and differently in each sample of an element, so interpolating
               // between them cuts the circle's corners (the hub's build, cadinterp-occt-results:
               // geometry max 0.0054 of the diagonal, 0.0020 so).
-              std::vector<std::pair<std::uint32_t, double>> at_lead, at_follow;
-              loop_targets(*P[lead], *anchor_of[lead], A, B, &at_lead);
-              const std::vector<char> allowed =
-                  loop_targets(*P[follow], *anchor_of[follow], A, B, &at_follow);
-              double want = -1;
-              for (const auto& [v, f] : at_lead)
-                if (v == chain[lead].back()) want = f;
+              // Where the leader's vertex is no loop vertex strictly between A and B, any of the
+              // follower's between them.
+              const std::vector<char> allowed = loop_targets(*P[follow], *anchor_of[follow], A, B);
+              const std::int64_t pick =
+                  at_same_fraction(*P[lead], *anchor_of[lead], chain[lead].back(), *P[follow],
+                                   *anchor_of[follow], nullptr);
               std::vector<char> target(allowed.size(), 0);
-              double best = std::numeric_limits<double>::infinity();
-              std::uint32_t pick = 0;
-              for (const auto& [v, f] : at_follow)
-                if (std::fabs(f - want) < best) {
-                  best = std::fabs(f - want);
-                  pick = v;
-                }
-              if (!at_follow.empty()) target[pick] = 1;
+              if (pick >= 0) target[static_cast<std::size_t>(pick)] = 1;
               chain[follow] = shortest_path_to_any(
                   *surf[follow], *cuts[follow], static_cast<std::uint32_t>(vb[follow]),
-                  want >= 0 ? target : allowed, *of[follow], patch[follow]);
+                  pick >= 0 ? target : allowed, *of[follow], patch[follow]);
               // The two slits must run alike.
               if (chain[follow].size() >= 2) {
                 if (paths_run_alike(ss, chain[0], cs, chain[1])) break;
