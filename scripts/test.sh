@@ -15,12 +15,15 @@ JOBS="${JOBS:-$(nproc)}"
 scripts/install-deps.sh
 
 step() { printf '\n== %s\n' "$*"; }
-# Runs a Node test script with its output in LOG: prints the summary, or the log's tail on failure.
+# Runs a Node test script with its output in LOG: prints the summary, or on failure the log's
+# tail followed by each failed test's name and error (last, where a truncated view still sees it).
 quiet_unless_failed() {
   local log=$1; shift
   mkdir -p "$(dirname "$log")"
   if ! "$@" >"$log" 2>&1; then
-    tail -n 80 "$log"; echo "FAILED: $* (full log: $log)"; return 1
+    tail -n 80 "$log"
+    echo "-- failed tests:"; grep -E '^ *(not ok |error: )' "$log" | tail -n 20 || true
+    echo "FAILED: $* (full log: $log)"; return 1
   fi
   grep -E '^(# |ℹ )(tests|pass|fail|skipped) ' "$log" || true
 }
