@@ -260,7 +260,7 @@ TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
 // what the asset's provenance records.
 TEST(EndToEnd, DefaultMapperIsTheMeshMapperAndNamedInProvenance) {
 #ifdef CADINTERP_HAVE_MAPPING
-  EXPECT_STREQ(builder::default_mapper().name(), "mesh-v8");
+  EXPECT_STREQ(builder::default_mapper().name(), "mesh-v9");
 #else
   EXPECT_STREQ(builder::default_mapper().name(), "identity");
 #endif

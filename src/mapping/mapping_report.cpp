@@ -242,11 +242,13 @@ int pairs(const std::vector<std::string>& args) {
       }
     }
     if (only >= 0 && i != only) continue;
+    // Every digit, so that a test can regenerate the pair exactly (the meshes of two samples
+    // whose parameters differ in the seventh digit may differ).
     if (only >= 0) {
       auto print_x = [&](const char* name, const std::vector<double>& x) {
         std::printf("%s x =", name);
         for (std::size_t d = 0; d < x.size(); ++d)
-          std::printf(" %s=%.6g", host.names()[d].c_str(), x[d]);
+          std::printf(" %s=%.17g", host.names()[d].c_str(), x[d]);
         std::printf("\n");
       };
       print_x("source", xa);

@@ -1203,6 +1203,55 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
           for (auto& ch : try_traced[1]) can_traced.push_back(std::move(ch));
           return true;
         };
+        auto same_vertex = [&](int x, int y) {
+          const int u = vertex_at(cs, canon_pos(x), can_tol);
+          return u >= 0 && u == vertex_at(cs, canon_pos(y), can_tol);
+        };
+        // A new anchor on the hole loop, on the far side from anchor b (a quarter to three
+        // quarters of the loop's arc length from it), at the canonical vertex nearest first-loop
+        // anchor a and on the source at the same fraction of its loop from b, as (c) places its
+        // new anchors; -1 where either side has no such vertex that a path can leave by.
+        auto far_side_anchor = [&](int b, int a) -> int {
+          const Loop* loops[2] = {&sp[sidx].holes[hole_index], &hole};
+          double from[2];
+          for (int side = 0; side < 2; ++side) {
+            const Loop& l = *loops[side];
+            const auto k = std::find(l.anchors.begin(), l.anchors.end(), b);
+            if (k == l.anchors.end()) return -1;
+            from[side] = l.anchor_s[static_cast<std::size_t>(k - l.anchors.begin())];
+          }
+          auto fraction = [&](int side, std::size_t i) {
+            const double L = loops[side]->s.back();
+            return std::fmod(loops[side]->s[i] - from[side] + 2 * L, L) / L;
+          };
+          auto candidate = [&](int side, std::size_t i) {
+            const std::uint32_t v = loops[side]->vertices[i];
+            return (side == 0 ? src_anchor_of : can_anchor_of)[v] < 0 && leaves[side][v] &&
+                   occurs_once(loops[side]->vertices, v);
+          };
+          std::int64_t pick[2] = {-1, -1};
+          double want = -1, best = std::numeric_limits<double>::infinity();
+          for (std::size_t i = 0; i < hole.vertices.size(); ++i) {
+            const double f = fraction(1, i);
+            if (f < 0.25 || f > 0.75 || !candidate(1, i)) continue;
+            const double d = dist(cs.position(hole.vertices[i]), canon_pos(a));
+            if (d < best) {
+              best = d;
+              pick[1] = hole.vertices[i];
+              want = f;
+            }
+          }
+          if (pick[1] < 0) return -1;
+          best = std::numeric_limits<double>::infinity();
+          for (std::size_t i = 0; i < loops[0]->vertices.size(); ++i)
+            if (candidate(0, i) && std::fabs(fraction(0, i) - want) < best) {
+              best = std::fabs(fraction(0, i) - want);
+              pick[0] = loops[0]->vertices[i];
+            }
+          if (pick[0] < 0) return -1;
+          return push_anchor(static_cast<std::uint32_t>(pick[0]),
+                             static_cast<std::uint32_t>(pick[1]));
+        };
         if (!short_only && M >= 2 && hole.anchors.size() >= 2) {
           for (const auto& [d0, i] : order) {
             (void)d0;
@@ -1211,6 +1260,23 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             const int b1 = hole.anchors[nearest];
             const int b2 = hole.anchors[(nearest + hole.anchors.size() / 2) % hole.anchors.size()];
             ++tried;
+            // Where the hole's anchors are one vertex (a closed CAD edge's vertex, which is the
+            // end of that edge twice), both paths would end there: the piece holding the hole
+            // then wraps round it, a thin strip between a path and the rim on one side and a wide
+            // one on the other, and the disk maps squeeze its rim's first row of triangles flat
+            // (the OpenCASCADE mount's bolt holes at chord angle 0.2: the bottom face's row beside
+            // the rim, 0.66 mm wide on the canonical, mapped to 0.01 mm; the tets on it inverted).
+            // The second path ends instead at a new anchor on the far side of the hole.
+            if (same_vertex(b1, b2)) {
+              const int m = far_side_anchor(b1, a2);
+              if (m >= 0) {
+                if (try_split({{a1, b1}, {a2, m}})) {
+                  split = true;
+                  break;
+                }
+                pop_anchor();
+              }
+            }
             if (try_split({{a1, b1}, {a2, b2}})) {
               split = true;
               break;

@@ -104,7 +104,8 @@ class MeshMapper final : public builder::Mapper {
   // v6: a loop without anchor slit in the same direction from its centre on both sides. v7: the
   // untangler's energy evaluated with other rounding, the boundary untangled again after it. v8:
   // a slit to a loop without anchor may start beside the first loop's anchors, at a new one.
-  const char* name() const override { return "mesh-v8"; }
+  // v9: a hole whose anchors are one vertex is split by paths to both sides of its rim.
+  const char* name() const override { return "mesh-v9"; }
 };
 
 }  // namespace cadinterp::mapping

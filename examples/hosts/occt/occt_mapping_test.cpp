@@ -108,3 +108,20 @@ TEST(OcctMapping, HubSlitStartsBesideAnchorsWhenSlitsFromTheFarAnchorDiffer) {
 TEST(OcctMapping, HubSlitAcrossAnAnnulusOneTriangleWideRunsAlike) {
   expect_maps("hub", "angle=0.2", {9.38213, 9.66734, 6.83686}, {7.98021, 0.129262, 4.72844}, 1e-3);
 }
+
+// Mount random pair 2 at chord angle 0.2 (`cadinterp-mapping-report pairs -m mount --host-options
+// angle=0.2 -n 6 --only 2`): bolt holes of 9.4 mm on the source, 5.1 mm on the canonical. Each
+// hole's rim is one closed CAD edge, so both of its anchors are the one vertex where it closes,
+// and the two paths that split the bottom face both ended there: the piece holding the hole
+// wrapped round it, with a strip 0.5 mm wide between a path and the rim on the canonical and
+// 2 mm wide on the source, and the disk maps squeezed the canonical's first row of triangles at
+// the rim (0.66 mm) to 0.01 mm; a tet on it stayed inverted. The second path now ends at a new
+// anchor on the far side of the rim.
+TEST(OcctMapping, MountHoleSplitByPathsToBothSidesOfItsRim) {
+  expect_maps("mount", "angle=0.2",
+              {74.600809820707781, 63.165876435997028, 46.592067294218779, 4.365249886921438,
+               1.533188774140662, 9.364224331226465},
+              {63.72262067253093, 56.866163671213272, 38.235757583556179, 3.9877544682626209,
+               3.6066667954965714, 5.1369610639578021},
+              1e-3);
+}
