@@ -873,6 +873,19 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       }
       return t;
     };
+    // The vertex of (vertex, fraction) pairs whose fraction is nearest `want` (the first such in
+    // their order); -1 where there is none.
+    auto nearest_fraction = [](const std::vector<std::pair<std::uint32_t, double>>& at,
+                               double want) -> std::int64_t {
+      double best = std::numeric_limits<double>::infinity();
+      std::int64_t pick = -1;
+      for (const auto& [x, f] : at)
+        if (std::fabs(f - want) < best) {
+          best = std::fabs(f - want);
+          pick = x;
+        }
+      return pick;
+    };
     // The vertex of patch `to`'s first loop at the fraction of the CAD path between the same two
     // anchors that vertex v has on patch `from`'s (the nearest one, among those `allowed` marks
     // where given), so that a new anchor lies on the same CAD path on both sides; -1 where v is
@@ -889,14 +902,11 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       for (const auto& [x, f] : at_from)
         if (x == v) want = f;
       if (want < 0) return -1;
-      double best = std::numeric_limits<double>::infinity();
-      std::int64_t pick = -1;
-      for (const auto& [x, f] : at_to)
-        if ((!allowed || (*allowed)[x]) && std::fabs(f - want) < best) {
-          best = std::fabs(f - want);
-          pick = x;
-        }
-      return pick;
+      if (allowed)
+        at_to.erase(std::remove_if(at_to.begin(), at_to.end(),
+                                   [&](const auto& xf) { return !(*allowed)[xf.first]; }),
+                    at_to.end());
+      return nearest_fraction(at_to, want);
     };
     const int first_pass = c.holes.size() > 1 ? 0 : 1;
     for (int pass = first_pass; pass < 3 && !split; ++pass)
@@ -1242,12 +1252,10 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
             }
           }
           if (pick[1] < 0) return -1;
-          best = std::numeric_limits<double>::infinity();
+          std::vector<std::pair<std::uint32_t, double>> at_source;
           for (std::size_t i = 0; i < loops[0]->vertices.size(); ++i)
-            if (candidate(0, i) && std::fabs(fraction(0, i) - want) < best) {
-              best = std::fabs(fraction(0, i) - want);
-              pick[0] = loops[0]->vertices[i];
-            }
+            if (candidate(0, i)) at_source.emplace_back(loops[0]->vertices[i], fraction(0, i));
+          pick[0] = nearest_fraction(at_source, want);
           if (pick[0] < 0) return -1;
           return push_anchor(static_cast<std::uint32_t>(pick[0]),
                              static_cast<std::uint32_t>(pick[1]));
