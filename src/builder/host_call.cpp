@@ -79,13 +79,41 @@ Sample Host::evaluate(const double* x) const {
   }
   if (err.empty() && host_.references)
     err = guarded("references", out, [&] { return host_.references(host_.user, x, &out); });
-  if (err.empty() && host_.simulate) {
-    const Sample& s = out.sample;
-    cadinterp_host_mesh m{s.vertex_count(),      s.vertices.data(),  s.tet_count(),
-                          s.tets.data(),         s.triangle_count(), s.triangles.data(),
-                          s.triangle_tags.data()};
-    err = guarded("simulate", out, [&] { return host_.simulate(host_.user, x, &m, &out); });
+  if (err.empty() && host_.simulate) err = simulate_into(x, out);
+  return finish(out, err, t0);
+}
+
+Sample Host::simulate(const double* x, const Sample& mesh) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!host_.simulate) {
+    Sample s;
+    s.message = "the host has no simulate callback";
+    return s;
   }
+  std::unique_lock<std::mutex> lock(serial_, std::defer_lock);
+  if (!thread_safe()) lock.lock();
+  cadinterp_sample out;
+  out.sample.vertices = mesh.vertices;
+  out.sample.tets = mesh.tets;
+  out.sample.triangles = mesh.triangles;
+  out.sample.triangle_tags = mesh.triangle_tags;
+  out.mesh_set = true;
+  std::string err = validate(out.sample);
+  if (!err.empty()) err = "the mesh to simulate on: " + err;
+  if (err.empty()) err = simulate_into(x, out);
+  return finish(out, err, t0);
+}
+
+std::string Host::simulate_into(const double* x, cadinterp_sample& out) const {
+  const Sample& s = out.sample;
+  cadinterp_host_mesh m{s.vertex_count(),      s.vertices.data(),  s.tet_count(),
+                        s.tets.data(),         s.triangle_count(), s.triangles.data(),
+                        s.triangle_tags.data()};
+  return guarded("simulate", out, [&] { return host_.simulate(host_.user, x, &m, &out); });
+}
+
+Sample Host::finish(cadinterp_sample& out, std::string err,
+                    std::chrono::steady_clock::time_point t0) {
   if (err.empty()) {
     const std::string v = validate(out.sample);
     if (!v.empty()) err = "host output: " + v;

@@ -3,6 +3,7 @@
 // become an infeasible Sample with a message; the build goes on).
 #pragma once
 
+#include <chrono>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -38,7 +39,20 @@ class Host {
   /// std::bad_alloc. Thread-safety: concurrent calls when thread_safe(), else serialized here.
   Sample evaluate(const double* x) const;
 
+  /// The host's simulate at x on a mesh other than the one regenerate writes (a mapped one, §6:
+  /// the source's geometry in the canonical's combinatorics, with its triangles tagged so that
+  /// the host's boundary-condition regions at x name them): a Sample holding that mesh and the
+  /// fields, or an infeasible one whose message says why (the host has no simulate, or it
+  /// failed). Same guards, validation and thread-safety as evaluate.
+  Sample simulate(const double* x, const Sample& mesh) const;
+
  private:
+  // Calls simulate on the mesh set on `out`; "" or why it failed.
+  std::string simulate_into(const double* x, cadinterp_sample& out) const;
+  // The Sample of a finished evaluation: validated, or infeasible with `err`.
+  static Sample finish(cadinterp_sample& out, std::string err,
+                       std::chrono::steady_clock::time_point t0);
+
   cadinterp_host host_{};
   std::string name_, identity_;
   std::vector<std::string> names_, units_;

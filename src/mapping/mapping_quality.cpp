@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "builder/surface_distance.h"
 #include "mapping/interior_solve.h"
@@ -17,7 +18,116 @@ double percentile(std::vector<double> v, double q) {
   return v[std::min(v.size() - 1, i == 0 ? 0 : i - 1)];
 }
 
+// Per canonical vertex, max over components |mapped - value_at(v)| / the source field's range,
+// for per-vertex field f of the source; vertices where value_at returns false are left out.
+template <class ValueAt>
+std::vector<double> vertex_errors(const builder::Sample& source,
+                                  const builder::MappedSample& mapped, std::size_t f,
+                                  ValueAt&& value_at) {
+  std::vector<double> errors;
+  const builder::Field& sf = source.fields[f];
+  const auto C = static_cast<std::size_t>(sf.components);
+  const auto mm = std::minmax_element(sf.values.begin(), sf.values.end());
+  const double range = sf.values.empty() ? 1 : std::max(*mm.second - *mm.first, 1e-300);
+  const std::size_t nv = mapped.vertices.size() / 3;
+  std::vector<double> value(C);
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!value_at(v, value.data())) continue;
+    double e = 0;
+    for (std::size_t c = 0; c < C; ++c)
+      e = std::max(e, std::abs(mapped.fields[f][v * C + c] - value[c]) / range);
+    errors.push_back(e);
+  }
+  return errors;
+}
+
+// The named regions each tag lies in (sorted names), for the tags of `s`'s regions.
+std::map<std::int32_t, std::vector<std::string>> regions_of_tags(const builder::Sample& s) {
+  std::map<std::int32_t, std::vector<std::string>> in;
+  for (const builder::Region& r : s.regions)
+    for (std::int32_t t : r.face_tags) in[t].push_back(r.name);
+  for (auto& [t, names] : in) {
+    std::sort(names.begin(), names.end());
+    names.erase(std::unique(names.begin(), names.end()), names.end());
+  }
+  return in;
+}
+
 }  // namespace
+
+std::vector<FieldError> compare_fields(const builder::Sample& source,
+                                       const builder::MappedSample& mapped,
+                                       const builder::Sample& reference) {
+  std::vector<FieldError> out;
+  for (std::size_t f = 0; f < source.fields.size() && f < mapped.fields.size(); ++f) {
+    const builder::Field& sf = source.fields[f];
+    if (sf.location != 0) continue;
+    const auto r = std::find_if(
+        reference.fields.begin(), reference.fields.end(), [&](const builder::Field& g) {
+          return g.name == sf.name && g.location == 0 && g.components == sf.components;
+        });
+    if (r == reference.fields.end() || r->values.size() != mapped.fields[f].size()) continue;
+    const auto C = static_cast<std::size_t>(sf.components);
+    const std::vector<double> e = vertex_errors(source, mapped, f, [&](std::size_t v, double* x) {
+      for (std::size_t c = 0; c < C; ++c) x[c] = r->values[v * C + c];
+      return true;
+    });
+    FieldError fe;
+    fe.name = sf.name;
+    fe.max = e.empty() ? 0 : *std::max_element(e.begin(), e.end());
+    fe.p99 = percentile(e, 0.99);
+    out.push_back(fe);
+  }
+  return out;
+}
+
+bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& canonical,
+                         const builder::MappedSample& mapped, builder::Sample& out,
+                         std::string& why) {
+  const auto in_source = regions_of_tags(source);
+  const auto in_canonical = regions_of_tags(canonical);
+  // A tag in no source region, for canonical faces in none whose own tag the source uses in one.
+  std::int32_t unused = 0;
+  for (std::int32_t t : source.triangle_tags) unused = std::max(unused, t);
+  for (const auto& [t, names] : in_source) unused = std::max(unused, t);
+  ++unused;
+  static const std::vector<std::string> none;
+  auto regions = [](const std::map<std::int32_t, std::vector<std::string>>& in,
+                    std::int32_t t) -> const std::vector<std::string>& {
+    const auto it = in.find(t);
+    return it == in.end() ? none : it->second;
+  };
+  std::map<std::int32_t, std::int32_t> tag_of;
+  for (std::int32_t t : canonical.triangle_tags) {
+    if (tag_of.count(t)) continue;
+    const std::vector<std::string>& want = regions(in_canonical, t);
+    if (regions(in_source, t) == want) {
+      tag_of[t] = t;
+      continue;
+    }
+    if (want.empty()) {
+      tag_of[t] = unused;
+      continue;
+    }
+    const auto it = std::find_if(in_source.begin(), in_source.end(),
+                                 [&](const auto& tn) { return tn.second == want; });
+    if (it == in_source.end()) {
+      why = "no face of the source lies in exactly the regions of canonical face tag " +
+            std::to_string(t) + " (";
+      for (std::size_t i = 0; i < want.size(); ++i) why += (i ? ", " : "") + want[i];
+      why += ")";
+      return false;
+    }
+    tag_of[t] = it->first;
+  }
+  out = builder::Sample{};
+  out.vertices = mapped.vertices;
+  out.tets = canonical.tets;
+  out.triangles = canonical.triangles;
+  out.triangle_tags.reserve(canonical.triangle_tags.size());
+  for (std::int32_t t : canonical.triangle_tags) out.triangle_tags.push_back(tag_of[t]);
+  return true;
+}
 
 double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,
                    const std::vector<std::int32_t>& tags) {
@@ -94,19 +204,11 @@ PairQuality measure_pair(const builder::Sample& source, const builder::Sample& c
   if (truth) {
     std::vector<double> errors;
     for (std::size_t f = 0; f < source.fields.size() && f < mapped.fields.size(); ++f) {
-      const builder::Field& sf = source.fields[f];
-      if (sf.location != 0) continue;
-      const auto C = static_cast<std::size_t>(sf.components);
-      const auto mm = std::minmax_element(sf.values.begin(), sf.values.end());
-      const double range = std::max(*mm.second - *mm.first, 1e-300);
-      std::vector<double> value(C);
-      for (std::size_t v = 0; v < canonical.vertex_count(); ++v) {
-        if (!truth(static_cast<int>(f), &mapped.vertices[3 * v], value.data())) continue;
-        double e = 0;
-        for (std::size_t c = 0; c < C; ++c)
-          e = std::max(e, std::abs(mapped.fields[f][v * C + c] - value[c]) / range);
-        errors.push_back(e);
-      }
+      if (source.fields[f].location != 0) continue;
+      const std::vector<double> e = vertex_errors(source, mapped, f, [&](std::size_t v, double* x) {
+        return truth(static_cast<int>(f), &mapped.vertices[3 * v], x);
+      });
+      errors.insert(errors.end(), e.begin(), e.end());
     }
     q.field_max = errors.empty() ? 0 : *std::max_element(errors.begin(), errors.end());
     q.field_p99 = percentile(errors, 0.99);

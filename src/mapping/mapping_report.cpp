@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <random>
 #include <set>
@@ -137,6 +138,23 @@ int pairs(const std::vector<std::string>& args) {
          "whether it is a source vertex far from the mapped boundary or a mapped one off the "
          "source's",
          &where);
+  bool fem = false;
+  p.flag("fem", 0,
+         "compare the fields each mapping carries with the host's own simulate at the source's "
+         "parameters on the mapped mesh (its boundary-condition faces found by the canonical's "
+         "region tags), instead of with the closed form: per field after each pair and in the "
+         "summary",
+         &fem);
+  std::string canonical_options;
+  p.option("canonical-options", 0, "STRING",
+           "the model's options for the canonical sample (default: the source's), e.g. another "
+           "mesh size",
+           &canonical_options);
+  bool same = false;
+  p.flag("same", 0,
+         "the canonical at the source's parameters: with --canonical-options, one solid meshed "
+         "twice (the fields' difference then is the two meshes' alone)",
+         &same);
   p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
   p.option("host", 0, "LIB.so",
            "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
@@ -182,9 +200,10 @@ int pairs(const std::vector<std::string>& args) {
   mo.geodesic_paths = geodesic != 0;
   for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;
 
-  // Field truth in closed form exists for the analytic host only; another host's fields are
-  // reported as n/a (its own fields at the mapped points are what the transfer interpolates, so
-  // comparing with them would measure nothing).
+  // Field truth in closed form exists for the analytic host only. Another host's own fields at
+  // the mapped points are what the transfer interpolates, so comparing with them would measure
+  // nothing: its fields are n/a unless --fem asks it to simulate on the mapped mesh itself, a
+  // truth that also holds the difference between two meshes' discretizations of the same field.
   const bool analytic = library.empty();
   if (!analytic) options = host_options;
   if (!analytic && !sizes_given) sizes.clear();
@@ -192,6 +211,11 @@ int pairs(const std::vector<std::string>& args) {
       analytic ? open_host(model, options) : open_library_host(library, model, options);
   const builder::Host host(*h);
   const analytic_model* am = analytic ? analytic_host_model(h) : nullptr;
+  const bool other = !canonical_options.empty() && canonical_options != options;
+  const builder::Host canonical_host(!other ? *h
+                                     : analytic
+                                         ? *open_host(model, canonical_options)
+                                         : *open_library_host(library, model, canonical_options));
   std::vector<double> box_lo, box_hi;
   if (!box.empty()) {
     for (const std::string& r : cli::split_list(box)) {
@@ -214,13 +238,18 @@ int pairs(const std::vector<std::string>& args) {
       x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
     return x;
   };
-  std::printf("model %s (%s)%s%s, %d random pairs%s\n", model.c_str(), options.c_str(),
+  std::printf("model %s (%s)%s%s, %d random pairs%s%s%s%s\n", model.c_str(), options.c_str(),
               analytic ? "" : " from ", analytic ? "" : library.c_str(), count,
-              element > 0 ? " (element corner -> centre)" : "");
+              element > 0 ? " (element corner -> centre)" : "",
+              other ? ", the canonical's options (" : "", other ? canonical_options.c_str() : "",
+              other ? ")" : "");
+  if (same) std::printf("the canonical at the source's parameters\n");
   std::printf("%5s %6s %6s %4s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "pair", "V_src", "V_can",
               "topo", "ms", "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err",
               "field_max", "field_p99");
   std::vector<double> haus, haus99, area, field, field99, times, sizes_v;
+  std::map<std::string, std::pair<double, std::vector<double>>> fem_by_field;  // max, p99s
+  std::size_t simulated = 0;
   double min_sj = 1;
   std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, edges_only = 0, infeasible = 0;
   int found = 0;
@@ -241,6 +270,7 @@ int pairs(const std::vector<std::string>& args) {
         xa[d] = centre + (upper ? half : -half);
       }
     }
+    if (same) xc = xa;
     if (only >= 0 && i != only) continue;
     // Every digit, so that a test can regenerate the pair exactly (the meshes of two samples
     // whose parameters differ in the seventh digit may differ).
@@ -254,7 +284,7 @@ int pairs(const std::vector<std::string>& args) {
       print_x("source", xa);
       print_x("canonical", xc);
     }
-    const builder::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
+    const builder::Sample a = host.evaluate(xa.data()), c = canonical_host.evaluate(xc.data());
     if (!a.feasible || !c.feasible) {
       ++infeasible;
       continue;
@@ -276,7 +306,7 @@ int pairs(const std::vector<std::string>& args) {
                   topo, ms, why.c_str());
       continue;
     }
-    const mapping::PairQuality q = mapping::measure_pair(
+    mapping::PairQuality q = mapping::measure_pair(
         a, c, m,
         am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
           return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
@@ -285,13 +315,42 @@ int pairs(const std::vector<std::string>& args) {
     // The canonical mesh's own quality, for comparison: the mapping cannot do better.
     const double own = mapping::tet_quality(c.vertices, c.tets).min_scaled_jacobian;
     char fmax[16] = "n/a", f99[16] = "n/a";
-    if (am) {
+    std::string by_field;
+    bool fields_measured = am != nullptr && !fem;
+    if (fem) {
+      // The row's field columns: the largest of the fields' max and of their 99th percentiles.
+      q.field_max = q.field_p99 = 0;
+      builder::Sample mesh;
+      std::string no;
+      if (!mapping::mesh_for_simulation(a, c, m, mesh, no)) {
+        by_field = "not simulated: " + no;
+      } else if (const builder::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
+        by_field = "not simulated: " + r.message;
+      } else {
+        for (const mapping::FieldError& e : mapping::compare_fields(a, m, r)) {
+          q.field_max = std::max(q.field_max, e.max);
+          q.field_p99 = std::max(q.field_p99, e.p99);
+          char one[96];
+          std::snprintf(one, sizeof one, "%s %.2e / %.2e", e.name.c_str(), e.max, e.p99);
+          by_field += (by_field.empty() ? "" : ", ") + std::string(one);
+          auto& [fm, f9] = fem_by_field[e.name];
+          fm = std::max(fm, e.max);
+          f9.push_back(e.p99);
+        }
+        ++simulated;
+        fields_measured = true;
+      }
+    }
+    if (fields_measured) {
       std::snprintf(fmax, sizeof fmax, "%.2e", q.field_max);
       std::snprintf(f99, sizeof f99, "%.2e", q.field_p99);
     }
     std::printf("%5d %6zu %6zu %4c %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n", i,
                 a.vertex_count(), c.vertex_count(), topo, ms, q.hausdorff_max, q.hausdorff_p99,
                 q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax, f99);
+    if (fem)
+      std::printf("      fields (max / p99) against the host's simulate on the mapped mesh: %s\n",
+                  by_field.c_str());
     if (where)
       std::printf("      Hausdorff max at (%.4g, %.4g, %.4g): %s vertex on face tag %d\n",
                   q.hausdorff_at[0], q.hausdorff_at[1], q.hausdorff_at[2],
@@ -317,10 +376,20 @@ int pairs(const std::vector<std::string>& args) {
       " region area error max %.2e (target 1e-2); ",
       haus.size(), differing, topology, edges_only, failed, infeasible, mx(haus),
       percentile(haus99, 0.99), min_sj, inverted, mx(area));
-  if (am)
+  if (fem) {
+    std::printf(
+        "fields against the host's simulate on the mapped mesh (%zu of %zu mapped pairs "
+        "simulated), max / p99 over pairs of per-pair p99:",
+        simulated, haus.size());
+    for (const auto& [name, e] : fem_by_field)
+      std::printf(" %s %.2e / %.2e", name.c_str(), e.first, percentile(e.second, 0.99));
+    std::printf("\n");
+  } else if (am)
     std::printf("field error max %.2e, p99 %.2e\n", mx(field), percentile(field99, 0.99));
   else
-    std::printf("field error n/a (no closed-form truth for this host)\n");
+    std::printf(
+        "field error n/a (no closed-form truth for this host; --fem compares with its "
+        "simulate on the mapped mesh)\n");
   if (!times.empty()) {
     double tsum = 0, vsum = 0;
     for (std::size_t i = 0; i < times.size(); ++i) {

@@ -140,6 +140,71 @@ TEST(MeshMapper, PlatePairsAcrossResolutionsMeetTheQualityTargets) {
   EXPECT_EQ(pairs, 20);
 }
 
+// The host's simulate on the mapped mesh (`cadinterp-mapping-report pairs --fem`): the analytic
+// host simulates in closed form at each vertex, so the comparison with it gives the closed-form
+// comparison's numbers; its boundary-condition faces are found through the canonical's regions
+// even where the canonical's face tags are not the source's; and what cannot be simulated is
+// said, never crashed on.
+TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
+  const Model plate("plate", "edge=5");
+  const builder::Host host(*plate.host);
+  const std::vector<double> xa{57, 23, 9.1}, xc{91, 48, 3.3};
+  const builder::Sample source = plate.at(xa), canonical = plate.at(xc);
+  ASSERT_FALSE(source.regions.empty());
+  builder::MappedSample m;
+  std::string why;
+  ASSERT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
+  builder::Sample mesh;
+  ASSERT_TRUE(mapping::mesh_for_simulation(source, canonical, m, mesh, why)) << why;
+  EXPECT_EQ(mesh.triangle_tags, canonical.triangle_tags);  // the same faces on both sides
+  const builder::Sample r = host.simulate(xa.data(), mesh);
+  ASSERT_TRUE(r.feasible) << r.message;
+  const std::vector<mapping::FieldError> errors = mapping::compare_fields(source, m, r);
+  ASSERT_FALSE(errors.empty());
+  double worst = 0;
+  for (const mapping::FieldError& e : errors) worst = std::max(worst, e.max);
+  const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, plate.truth(xa));
+  EXPECT_GT(q.field_max, 1e-6);  // the transfer interpolates a cubic: not exact
+  EXPECT_NEAR(worst, q.field_max, 1e-12);
+
+  // The canonical's tags renumbered (its regions too): each face gets back a source tag in the
+  // same regions, and each region keeps its mapped area.
+  builder::Sample renamed = canonical;
+  for (std::int32_t& t : renamed.triangle_tags) t += 1000;
+  for (builder::Region& g : renamed.regions)
+    for (std::int32_t& t : g.face_tags) t += 1000;
+  builder::Sample retagged;
+  ASSERT_TRUE(mapping::mesh_for_simulation(source, renamed, m, retagged, why)) << why;
+  for (const builder::Region& g : source.regions) {
+    const auto c = std::find_if(canonical.regions.begin(), canonical.regions.end(),
+                                [&](const builder::Region& h) { return h.name == g.name; });
+    ASSERT_NE(c, canonical.regions.end());
+    const double want = mapping::tagged_area(m.vertices, canonical, c->face_tags);
+    EXPECT_GT(want, 0) << g.name;
+    EXPECT_NEAR(mapping::tagged_area(retagged.vertices, retagged, g.face_tags), want, 1e-9 * want)
+        << g.name;
+  }
+  const builder::Sample r2 = host.simulate(xa.data(), retagged);
+  ASSERT_TRUE(r2.feasible) << r2.message;
+
+  // A canonical face in a region the source lacks has no face to take its tag from.
+  renamed.regions.push_back({"nowhere", "fixed", {renamed.triangle_tags[0]}});
+  EXPECT_FALSE(mapping::mesh_for_simulation(source, renamed, m, retagged, why));
+  EXPECT_NE(why.find("nowhere"), std::string::npos) << why;
+
+  // A host without simulate, and a mesh with an inverted tet: infeasible, with the reason.
+  cadinterp_host bare = *plate.host;
+  bare.simulate = nullptr;
+  const builder::Sample none = builder::Host(bare).simulate(xa.data(), mesh);
+  EXPECT_FALSE(none.feasible);
+  EXPECT_NE(none.message.find("no simulate"), std::string::npos) << none.message;
+  builder::Sample inverted = mesh;
+  std::swap(inverted.tets[0], inverted.tets[1]);
+  const builder::Sample bad = host.simulate(xa.data(), inverted);
+  EXPECT_FALSE(bad.feasible);
+  EXPECT_NE(bad.message.find("the mesh to simulate on"), std::string::npos) << bad.message;
+}
+
 // §6.2's subdivision of large patches (MapOptions::subdivide_ratio, off by default): the plate's
 // long faces carry edge samples on both long sides, whose straight path across is a small
 // fraction of the way round the face's loop between them, so paths are added there; the faces
