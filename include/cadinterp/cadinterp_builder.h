@@ -214,6 +214,15 @@ typedef struct cadinterp_build_options {
   double position_max_abs_error;
   cadinterp_progress_fn progress; /**< may be NULL */
   void* progress_user;
+  /** Fields of a sample mapped onto another sample's mesh (paper §6; every term of an element
+   * whose mesh differs from the element's canonical one). 0 (default): the sample's own fields,
+   * carried over by barycentric interpolation at the mapped points. Nonzero: the host's
+   * simulate at the sample's x on the mapped mesh itself, its boundary-condition faces found
+   * through the canonical sample's regions (the paper's consistent boundary regions), so that
+   * every term of an element is one discretization of its own shape and the blend holds no
+   * difference between two meshes' solutions. One more simulate per mapped term; where it fails
+   * the carried fields stay (counted in cadinterp_build_stages). Needs a host with simulate. */
+  int simulate_mapped;
 } cadinterp_build_options;
 
 /** Fills `options` with the defaults above (struct_size included). */
@@ -283,6 +292,11 @@ typedef struct cadinterp_build_stages {
   int unmapped_elements; /**< refused elements whose samples are all feasible: a term could not
                               be mapped onto the canonical mesh (the other refused elements of
                               cadinterp_build_report have an infeasible sample) */
+  /** With simulate_mapped: mapped terms whose fields the host simulated on the mapped mesh, and
+   * those where it failed (they keep the carried fields). A map evicted from the builder's
+   * cache and needed again counts again. */
+  int mapped_simulated;
+  int mapped_simulate_failures;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed. Fills at most

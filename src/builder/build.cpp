@@ -19,6 +19,7 @@
 #include "cadinterp/cadinterp_version.h"
 #include "core/adaptive.h"
 #ifdef CADINTERP_HAVE_MAPPING
+#include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mesh_mapper.h"
 #include "mapping/neighbour_transfer.h"
@@ -290,7 +291,17 @@ class MeshProblem final : public core::AdaptiveProblem {
       auto m = std::make_shared<MappedSample>();
       std::string why;
       const bool ok = mapper_.map(sample(src), sample(canon), *m, why);
+      std::string unsimulated;
+      const bool simulated =
+          ok && opt_.simulate_mapped && simulate_on_mapped(src, canon, *m, unsimulated);
       std::lock_guard<std::mutex> lock(maps_mu_);
+      if (ok && opt_.simulate_mapped) {
+        if (simulated) {
+          ++details_.mapped_simulated;
+        } else if (details_.mapped_simulate_failures++ == 0) {
+          details_.first_mapped_simulate_failure = unsimulated;
+        }
+      }
       if (!ok) {
         failures_.emplace(key, why);
         return false;
@@ -316,6 +327,41 @@ class MeshProblem final : public core::AdaptiveProblem {
     for (const auto& f : found->fields) v.fields.push_back(f.data());
     return true;
   }
+  /// simulate_mapped: replaces the carried fields of `m` (row src mapped onto row canon's mesh)
+  /// by the host's simulate at row src's x on that mesh. False with `why` (m untouched) where
+  /// the regions cannot be placed, the host fails, or it returns other fields.
+  bool simulate_on_mapped(int src, int canon, MappedSample& m, std::string& why) const {
+#ifdef CADINTERP_HAVE_MAPPING
+    const Sample& s = sample(src);
+    Sample mesh;
+    if (!mapping::mesh_for_simulation(s, sample(canon), m.vertices, mesh, why)) return false;
+    const Sample r = host_.simulate(point(src).data(), mesh);
+    if (!r.feasible) {
+      why = r.message;
+      return false;
+    }
+    std::vector<std::vector<double>> fields;
+    for (const Field& f : s.fields) {
+      const auto it = std::find_if(r.fields.begin(), r.fields.end(), [&](const Field& g) {
+        return g.name == f.name && g.location == f.location && g.components == f.components;
+      });
+      if (it == r.fields.end()) {
+        why = "simulate on the mapped mesh gave no field '" + f.name + "' like the sample's";
+        return false;
+      }
+      fields.push_back(it->values);
+    }
+    m.fields = std::move(fields);
+    return true;
+#else
+    (void)src;
+    (void)canon;
+    (void)m;
+    why = "simulate_mapped needs the mapping component";
+    return false;
+#endif
+  }
+
   const std::string& why(int src, int canon) {
     std::lock_guard<std::mutex> lock(maps_mu_);
     return failures_[std::make_pair(src, canon)];
@@ -445,7 +491,7 @@ std::string options_json(const BuildOptions& o, const char* mapper_name) {
               ? std::string(",\"neighbour_transfer\":\"") +
                     (o.neighbour_transfer == NeighbourTransfer::Always ? "always" : "direct") + "\""
               : std::string()) +
-         "}";
+         (o.simulate_mapped ? ",\"simulate_mapped\":true" : "") + "}";
 }
 
 namespace {
@@ -461,6 +507,8 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
   if (opt.threads < 0) throw std::invalid_argument("build: threads must be >= 0");
   if (!(opt.position_max_abs_error >= 0))
     throw std::invalid_argument("build: position_max_abs_error must be >= 0");
+  if (opt.simulate_mapped && !host.has_simulate())
+    throw std::invalid_argument("build: simulate_mapped needs a host with a simulate callback");
 
   BuildResult out;
   cadinterp_build_report& rep = details.counts;

@@ -78,6 +78,10 @@ struct BuildOptions {
   Executor* executor = nullptr;    ///< nullptr: a ThreadPoolExecutor with `threads`
   NeighbourTransfer neighbour_transfer = NeighbourTransfer::Fallback;  ///< cubic only
   bool measure_neighbour_transfer = false;  ///< fills the comparison in BuildResult::neighbour
+  /// cadinterp_build_options::simulate_mapped: a mapped term's fields are the host's simulate on
+  /// the mapped mesh (mapping component only; terms carried through a shared sample by the cubic
+  /// neighbour transfer keep the carried fields).
+  bool simulate_mapped = false;
 };
 
 /// A point where the host failed, with its message.
@@ -117,6 +121,10 @@ struct BuildReport {
   /// Elements refused although all their samples are feasible: a term could not be mapped into
   /// the canonical mesh (the rest of counts.infeasible_elements have an infeasible sample).
   int unmapped_elements = 0;
+  /// simulate_mapped: mapped terms simulated on their mapped mesh, and the failures (carried
+  /// fields kept; the first failure's message).
+  int mapped_simulated = 0, mapped_simulate_failures = 0;
+  std::string first_mapped_simulate_failure;
   /// Wall time per stage (seconds). store: opening the sample store; sampling: the refinement's
   /// waves of sample points (store reads, host evaluations, store writes); refinement: the rest
   /// of the adaptive run (error tests, including the mapping they need); elements: canonical

@@ -214,6 +214,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
     bo.threads = o.threads;
     bo.store_path = o.store_path ? o.store_path : "";
     bo.position_max_abs_error = o.position_max_abs_error;
+    bo.simulate_mapped = o.simulate_mapped != 0;
     if (!(bo.geometry_tolerance > 0) || !(bo.field_tolerance > 0))
       throw std::invalid_argument("options: tolerances must be positive");
     if (bo.max_samples < 2) throw std::invalid_argument("options: max_samples must be >= 2");
@@ -286,6 +287,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.elements_seconds = d.elements_seconds;
   s.write_seconds = b->write_seconds;
   s.unmapped_elements = d.unmapped_elements;
+  s.mapped_simulated = d.mapped_simulated;
+  s.mapped_simulate_failures = d.mapped_simulate_failures;
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

@@ -56,7 +56,8 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
 }
 
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
-                                unsigned seed, const FieldTruthAt& field_truth, bool count_lost) {
+                                unsigned seed, const FieldTruthAt& field_truth, bool count_lost,
+                                bool on_evaluated_mesh) {
   cadinterp_asset* raw = nullptr;
   if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
     throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
@@ -97,6 +98,18 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     for (std::size_t k = 0; k < fields.size(); ++k) by_field[k].push_back(point_field[k]);
     ++r.field_points;
   };
+  // The asset's regions, and per point the evaluated mesh's topology: where the host's
+  // boundary-condition faces lie on that mesh.
+  Sample evaluated;
+  for (int g = 0; g < cadinterp_region_count(asset.get()); ++g) {
+    cadinterp_region_info info;
+    if (cadinterp_region(asset.get(), g, &info) != CADINTERP_OK) continue;
+    evaluated.regions.push_back(
+        {info.name, info.kind,
+         std::vector<std::int32_t>(info.face_tags, info.face_tags + info.face_tag_count)});
+  }
+  std::vector<std::vector<double>> own_pooled(fields.size());
+  std::vector<double> own_max(fields.size(), 0.0);
   const int K = host.dim();
   for (int i = 0; i < points; ++i) {
     std::vector<double> x(static_cast<std::size_t>(K));
@@ -124,6 +137,41 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
     geo.push_back(symmetric_hausdorff(V, F, truth.vertices, truth.triangles) /
                   truth.bbox_diagonal());
+#ifdef CADINTERP_HAVE_MAPPING
+    if (on_evaluated_mesh) {
+      evaluated.tets.assign(m.tets, m.tets + 4 * std::size_t(m.tet_count));
+      evaluated.triangles = F;
+      evaluated.triangle_tags.assign(m.triangle_tags, m.triangle_tags + m.triangle_count);
+      Sample mesh;
+      std::string why;
+      Sample own;
+      if (mapping::mesh_for_simulation(truth, evaluated, V, mesh, why)) {
+        own = host.simulate(x.data(), mesh);
+        why = own.message;
+      }
+      if (!own.feasible) {
+        if (r.evaluated_mesh_refused++ == 0) r.evaluated_mesh_first_refusal = why;
+      } else {
+        ++r.evaluated_mesh_points;
+        for (std::size_t k = 0; k < fields.size(); ++k) {
+          const auto fi = static_cast<std::size_t>(fields[k]);
+          if (fi >= truth.fields.size()) continue;
+          const Field& tf = truth.fields[fi];
+          const auto of = std::find_if(own.fields.begin(), own.fields.end(),
+                                       [&](const Field& f) { return f.name == tf.name; });
+          if (of == own.fields.end() ||
+              of->values.size() != std::size_t(m.vertex_count) * std::size_t(tf.components))
+            continue;
+          const double range = value_range(tf.values);
+          for (std::size_t j = 0; j < of->values.size(); ++j) {
+            const double e = std::abs(static_cast<double>(m.fields[k][j]) - of->values[j]) / range;
+            own_max[k] = std::max(own_max[k], e);
+            own_pooled[k].push_back(e);
+          }
+        }
+      }
+    }
+#endif
     if (field_truth) {
       double e = 0;
       for (std::size_t k = 0; k < fields.size(); ++k) {
@@ -190,6 +238,8 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     r.field_max_by_field.push_back(f.empty() ? 0.0 : *std::max_element(f.begin(), f.end()));
     r.field_p99_by_field.push_back(percentile99(f));
     r.field_vertex_p99_by_field.push_back(percentile99(std::move(pooled[k])));
+    r.evaluated_mesh_max_by_field.push_back(own_max[k]);
+    r.evaluated_mesh_vertex_p99_by_field.push_back(percentile99(std::move(own_pooled[k])));
   }
   if (!geo.empty()) r.geometry_max = *std::max_element(geo.begin(), geo.end());
   if (!fld.empty()) r.field_max = *std::max_element(fld.begin(), fld.end());

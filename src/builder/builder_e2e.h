@@ -27,6 +27,15 @@ struct AccuracyReport {
   /// The 99th percentile over every compared vertex value of every point (pooled), the
   /// statistic of the paper's Table 2 (a max of 0.21 next to a 99% of 0.04 is per value).
   std::vector<double> field_vertex_p99_by_field;
+  /// With `on_evaluated_mesh`: per field, the max and pooled 99th percentile against the host's
+  /// own simulate at x on each evaluated mesh (its boundary-condition faces found through the
+  /// asset's regions). The comparison above takes its truth from the host's own mesh of x, so
+  /// it also holds the difference between two meshes' discretizations of one solid; this one
+  /// leaves that out. Points where the host cannot simulate on the evaluated mesh (a tet the
+  /// blend left flat, a region it cannot place) are counted, not compared.
+  int evaluated_mesh_points = 0, evaluated_mesh_refused = 0;
+  std::string evaluated_mesh_first_refusal;
+  std::vector<double> evaluated_mesh_max_by_field, evaluated_mesh_vertex_p99_by_field;
 };
 
 /// Outcome of one build through the C ABI (create, run, report, destroy).
@@ -52,8 +61,10 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
 using FieldTruthAt = std::function<bool(int field, const double* x, const double* p, double* v)>;
 /// With `count_lost`, the host is also asked at every point the runtime calls infeasible, to
 /// count the feasible points the asset lost (`lost`).
+/// With `on_evaluated_mesh` (needs the mapping component and a host with simulate), also the
+/// evaluated_mesh_* statistics: one more simulate per feasible point.
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& truth = nullptr,
-                                bool count_lost = false);
+                                bool count_lost = false, bool on_evaluated_mesh = false);
 
 }  // namespace cadinterp::builder

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "analytic_host.h"
 #include "builder/build.h"
@@ -39,6 +40,44 @@ const cadinterp_host* host(const char* model, const char* options) {
   const cadinterp_host* h = cadinterp_host_entry(model, options, &err);
   if (!h) ADD_FAILURE() << model << ": " << (err ? err : "?");
   return h;
+}
+
+// The plate's displacement (field 2, cubic along the plate) at the parameter box's 8 corners,
+// against the closed form at the evaluated positions: per corner, the max error relative to the
+// closed form's range there (empty where the asset cannot be evaluated).
+std::vector<double> corner_displacement_errors(const std::string& path,
+                                               const analytic_model* model) {
+  std::vector<double> errors;
+  cadinterp_asset* asset = nullptr;
+  if (cadinterp_open(path.c_str(), &asset) != CADINTERP_OK) return errors;
+  cadinterp_workspace* ws = nullptr;
+  if (cadinterp_workspace_create(asset, &ws) != CADINTERP_OK) ws = nullptr;
+  for (int corner = 0; corner < 8 && ws; ++corner) {
+    double x[3];
+    for (int d = 0; d < 3; ++d) {
+      cadinterp_parameter_info desc;
+      EXPECT_EQ(cadinterp_parameter(asset, d, &desc), CADINTERP_OK);
+      x[d] = (corner >> d) & 1 ? desc.upper : desc.lower;
+    }
+    const int displacement[1] = {2};
+    cadinterp_mesh m;
+    if (cadinterp_eval(ws, x, displacement, 1, &m) != CADINTERP_OK) break;
+    double err = 0, lo = 1e300, hi = -1e300;
+    for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
+      const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
+      double truth[3];
+      EXPECT_EQ(analytic_model_field_at(model, 2, x, p, truth), CADINTERP_OK);
+      for (int c = 0; c < 3; ++c) {
+        err = std::max(err, std::abs(m.fields[0][3 * v + std::uint32_t(c)] - truth[c]));
+        lo = std::min(lo, truth[c]);
+        hi = std::max(hi, truth[c]);
+      }
+    }
+    errors.push_back(err / (hi - lo));
+  }
+  cadinterp_workspace_destroy(ws);
+  cadinterp_close(asset);
+  return errors;
 }
 
 TEST(EndToEnd, BracketMatchesItsHost) {
@@ -114,36 +153,82 @@ TEST(EndToEnd, PlateBuildsAcrossResolutionsWithTheMeshMapper) {
   EXPECT_LT(a.geometry_max, 10 * o.geometry_tolerance);
   EXPECT_LT(a.field_max, 10 * o.field_tolerance);
 
-  cadinterp_asset* asset = nullptr;
-  ASSERT_EQ(cadinterp_open(path.c_str(), &asset), CADINTERP_OK);
-  cadinterp_workspace* ws = nullptr;
-  ASSERT_EQ(cadinterp_workspace_create(asset, &ws), CADINTERP_OK);
-  for (int corner = 0; corner < 8; ++corner) {
-    double x[3];
-    for (int d = 0; d < 3; ++d) {
-      cadinterp_parameter_info desc;
-      ASSERT_EQ(cadinterp_parameter(asset, d, &desc), CADINTERP_OK);
-      x[d] = (corner >> d) & 1 ? desc.upper : desc.lower;
-    }
-    const int displacement[1] = {2};
-    cadinterp_mesh m;
-    ASSERT_EQ(cadinterp_eval(ws, x, displacement, 1, &m), CADINTERP_OK);
-    double err = 0, lo = 1e300, hi = -1e300;
-    for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
-      const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
-      double truth[3];
-      ASSERT_EQ(analytic_model_field_at(model, 2, x, p, truth), CADINTERP_OK);
-      for (int c = 0; c < 3; ++c) {
-        err = std::max(err, std::abs(m.fields[0][3 * v + std::uint32_t(c)] - truth[c]));
-        lo = std::min(lo, truth[c]);
-        hi = std::max(hi, truth[c]);
-      }
-    }
-    EXPECT_LT(err, 2e-2 * (hi - lo)) << "corner " << corner;
-  }
-  cadinterp_workspace_destroy(ws);
-  cadinterp_close(asset);
+  const std::vector<double> corners = corner_displacement_errors(path, model);
+  ASSERT_EQ(corners.size(), 8u);
+  for (std::size_t corner = 0; corner < corners.size(); ++corner)
+    EXPECT_LT(corners[corner], 2e-2) << "corner " << corner;
   std::filesystem::remove(path);
+}
+
+// simulate_mapped: each mapped term's fields are the host's simulate on the mapped mesh. The
+// analytic host simulates in closed form at the vertices, so at the box's corners (samples,
+// each mapped into its element's canonical mesh) the asset gives the closed form up to float
+// rounding, where carrying the sample's fields over adds the barycentric interpolation's error.
+// The accuracy measurement's comparison with the host's simulate on each evaluated mesh is, on
+// this host, the closed-form comparison, and gives its numbers.
+TEST(EndToEnd, SimulateMappedTermsHoldTheHostsFieldsOnTheirMappedMesh) {
+#ifndef CADINTERP_HAVE_MAPPING
+  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
+#endif
+  const cadinterp_host* h = host("plate", "edge=8");
+  ASSERT_NE(h, nullptr);
+  const analytic_model* model = analytic_host_model(h);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 40;
+  o.threads = 2;
+  const std::string carried = temp_path("plate_carried.cadi");
+  const std::string simulated = temp_path("plate_simulated.cadi");
+  const builder::BuildOutcome rc = build(h, o, carried);
+  ASSERT_EQ(rc.status, CADINTERP_OK) << rc.error;
+  EXPECT_EQ(rc.stages.mapped_simulated, 0);
+  o.simulate_mapped = 1;
+  const builder::BuildOutcome rs = build(h, o, simulated);
+  ASSERT_EQ(rs.status, CADINTERP_OK) << rs.error;
+  EXPECT_GT(rs.stages.mapped_simulated, 0);
+  EXPECT_EQ(rs.stages.mapped_simulate_failures, 0);
+  EXPECT_EQ(rs.report.samples, rc.report.samples);
+
+  const std::vector<double> ec = corner_displacement_errors(carried, model),
+                            es = corner_displacement_errors(simulated, model);
+  ASSERT_EQ(ec.size(), 8u);
+  ASSERT_EQ(es.size(), 8u);
+  const double worst_carried = *std::max_element(ec.begin(), ec.end());
+  const double worst_simulated = *std::max_element(es.begin(), es.end());
+  std::printf(
+      "[ figures ] plate corners, displacement: carried %.2e, simulated on the mapped "
+      "mesh %.2e (relative to its range)\n",
+      worst_carried, worst_simulated);
+  EXPECT_LT(worst_simulated, 1e-5);  // float rounding of positions and values
+  EXPECT_GT(worst_carried, 100 * worst_simulated);
+
+  // On this host the host's simulate on an evaluated mesh is the closed form at its vertices.
+  const builder::Host bh(*h);
+  const builder::AccuracyReport own =
+      builder::measure_accuracy(simulated, bh, 20, 6, nullptr, false, true);
+  const builder::AccuracyReport closed = builder::measure_accuracy(
+      simulated, bh, 20, 6, [model](int f, const double* x, const double* p, double* v) {
+        return analytic_model_field_at(model, f, x, p, v) == CADINTERP_OK;
+      });
+  EXPECT_EQ(own.evaluated_mesh_points, 20);
+  EXPECT_EQ(own.evaluated_mesh_refused, 0) << own.evaluated_mesh_first_refusal;
+  ASSERT_EQ(own.evaluated_mesh_max_by_field.size(), closed.field_max_by_field.size());
+  for (std::size_t k = 0; k < closed.field_max_by_field.size(); ++k) {
+    EXPECT_GT(closed.field_max_by_field[k], 0) << own.field_names[k];
+    // float positions: the closed form at them, once in float and once in double
+    EXPECT_NEAR(own.evaluated_mesh_max_by_field[k], closed.field_max_by_field[k],
+                1e-4 * closed.field_max_by_field[k] + 1e-6)
+        << own.field_names[k];
+  }
+
+  // A host without simulate cannot build so: refused by name.
+  cadinterp_host bare = *h;
+  bare.simulate = nullptr;
+  const builder::BuildOutcome rb = build(&bare, o, temp_path("plate_bare.cadi"));
+  EXPECT_EQ(rb.status, CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_NE(rb.error.find("simulate_mapped"), std::string::npos) << rb.error;
+  std::filesystem::remove(carried);
+  std::filesystem::remove(simulated);
 }
 
 // The foldplate's B-rep topology changes at fold = 0 (its top face splits along a crease, a 13th

@@ -34,6 +34,7 @@ class Host {
   const std::string& name() const { return name_; }
   const std::string& identity() const { return identity_; }
   bool thread_safe() const { return host_.thread_safe != 0; }
+  bool has_simulate() const { return host_.simulate != nullptr; }
 
   /// regenerate, references, simulate at x (K values), then validate(). Never throws but for
   /// std::bad_alloc. Thread-safety: concurrent calls when thread_safe(), else serialized here.

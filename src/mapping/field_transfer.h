@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "builder/sample.h"
@@ -38,5 +39,16 @@ std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
                                                  const std::vector<char>& on_surface,
                                                  const std::vector<SurfacePoint>& surface_points,
                                                  const TetLocator& locator);
+
+/// A mapped mesh as a host can simulate on it at the source's parameters: `positions` (the
+/// canonical's vertices mapped, #V by 3), the canonical's tets and triangles, and each
+/// triangle's tag replaced by one of the source's tags that lies in exactly the same named
+/// regions (the canonical's own tag where it does; a face in no region gets a tag in none), so
+/// that the host's boundary conditions at the source's parameters fall on the faces the
+/// canonical's regions name (requirement 5: a force or fixture stays on its CAD face). False with
+/// `why` where no source face lies in some canonical face's regions.
+bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& canonical,
+                         const std::vector<double>& positions, builder::Sample& out,
+                         std::string& why);
 
 }  // namespace cadinterp::mapping

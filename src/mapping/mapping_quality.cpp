@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 
 #include "builder/surface_distance.h"
 #include "mapping/interior_solve.h"
@@ -41,18 +40,6 @@ std::vector<double> vertex_errors(const builder::Sample& source,
   return errors;
 }
 
-// The named regions each tag lies in (sorted names), for the tags of `s`'s regions.
-std::map<std::int32_t, std::vector<std::string>> regions_of_tags(const builder::Sample& s) {
-  std::map<std::int32_t, std::vector<std::string>> in;
-  for (const builder::Region& r : s.regions)
-    for (std::int32_t t : r.face_tags) in[t].push_back(r.name);
-  for (auto& [t, names] : in) {
-    std::sort(names.begin(), names.end());
-    names.erase(std::unique(names.begin(), names.end()), names.end());
-  }
-  return in;
-}
-
 }  // namespace
 
 std::vector<FieldError> compare_fields(const builder::Sample& source,
@@ -79,54 +66,6 @@ std::vector<FieldError> compare_fields(const builder::Sample& source,
     out.push_back(fe);
   }
   return out;
-}
-
-bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& canonical,
-                         const builder::MappedSample& mapped, builder::Sample& out,
-                         std::string& why) {
-  const auto in_source = regions_of_tags(source);
-  const auto in_canonical = regions_of_tags(canonical);
-  // A tag in no source region, for canonical faces in none whose own tag the source uses in one.
-  std::int32_t unused = 0;
-  for (std::int32_t t : source.triangle_tags) unused = std::max(unused, t);
-  for (const auto& [t, names] : in_source) unused = std::max(unused, t);
-  ++unused;
-  static const std::vector<std::string> none;
-  auto regions = [](const std::map<std::int32_t, std::vector<std::string>>& in,
-                    std::int32_t t) -> const std::vector<std::string>& {
-    const auto it = in.find(t);
-    return it == in.end() ? none : it->second;
-  };
-  std::map<std::int32_t, std::int32_t> tag_of;
-  for (std::int32_t t : canonical.triangle_tags) {
-    if (tag_of.count(t)) continue;
-    const std::vector<std::string>& want = regions(in_canonical, t);
-    if (regions(in_source, t) == want) {
-      tag_of[t] = t;
-      continue;
-    }
-    if (want.empty()) {
-      tag_of[t] = unused;
-      continue;
-    }
-    const auto it = std::find_if(in_source.begin(), in_source.end(),
-                                 [&](const auto& tn) { return tn.second == want; });
-    if (it == in_source.end()) {
-      why = "no face of the source lies in exactly the regions of canonical face tag " +
-            std::to_string(t) + " (";
-      for (std::size_t i = 0; i < want.size(); ++i) why += (i ? ", " : "") + want[i];
-      why += ")";
-      return false;
-    }
-    tag_of[t] = it->first;
-  }
-  out = builder::Sample{};
-  out.vertices = mapped.vertices;
-  out.tets = canonical.tets;
-  out.triangles = canonical.triangles;
-  out.triangle_tags.reserve(canonical.triangle_tags.size());
-  for (std::int32_t t : canonical.triangle_tags) out.triangle_tags.push_back(tag_of[t]);
-  return true;
 }
 
 double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,

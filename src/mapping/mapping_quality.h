@@ -45,21 +45,12 @@ struct FieldError {
 };
 
 /// The fields `mapped` carries from the source against the same-named per-vertex fields of
-/// `reference`, a sample on the mapped mesh (the host's simulate there, mesh_for_simulation):
+/// `reference`, a sample on the mapped mesh (the host's simulate there, field_transfer.h's
+/// mesh_for_simulation):
 /// one entry per source field that `reference` also has, in the source's order.
 std::vector<FieldError> compare_fields(const builder::Sample& source,
                                        const builder::MappedSample& mapped,
                                        const builder::Sample& reference);
-
-/// The mapped sample as a mesh a host can simulate on at the source's x: the mapped positions,
-/// the canonical's tets and triangles, and each triangle's tag replaced by one of the source's
-/// tags that lies in exactly the same named regions (the canonical's own tag where it does; a
-/// face in no region gets a tag in none), so that the host's boundary conditions at x fall on
-/// the faces the canonical's regions name (§6: a force or fixture stays on its CAD face). False
-/// with `why` where no source face lies in some canonical face's regions.
-bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& canonical,
-                         const builder::MappedSample& mapped, builder::Sample& out,
-                         std::string& why);
 
 /// Area of the triangles whose tag is in `tags` with positions `vertices`.
 double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,

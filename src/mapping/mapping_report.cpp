@@ -35,6 +35,7 @@
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "mapping/boundary_untangle.h"
+#include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
@@ -322,7 +323,7 @@ int pairs(const std::vector<std::string>& args) {
       q.field_max = q.field_p99 = 0;
       builder::Sample mesh;
       std::string no;
-      if (!mapping::mesh_for_simulation(a, c, m, mesh, no)) {
+      if (!mapping::mesh_for_simulation(a, c, m.vertices, mesh, no)) {
         by_field = "not simulated: " + no;
       } else if (const builder::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
         by_field = "not simulated: " + r.message;

@@ -19,6 +19,7 @@
 #include "builder/surface_distance.h"
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
+#include "mapping/field_transfer.h"
 #include "mapping/geodesic.h"
 #include "mapping/interior_solve.h"
 #include "mapping/layout_paths.h"
@@ -155,7 +156,7 @@ TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
   std::string why;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
   builder::Sample mesh;
-  ASSERT_TRUE(mapping::mesh_for_simulation(source, canonical, m, mesh, why)) << why;
+  ASSERT_TRUE(mapping::mesh_for_simulation(source, canonical, m.vertices, mesh, why)) << why;
   EXPECT_EQ(mesh.triangle_tags, canonical.triangle_tags);  // the same faces on both sides
   const builder::Sample r = host.simulate(xa.data(), mesh);
   ASSERT_TRUE(r.feasible) << r.message;
@@ -174,7 +175,7 @@ TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
   for (builder::Region& g : renamed.regions)
     for (std::int32_t& t : g.face_tags) t += 1000;
   builder::Sample retagged;
-  ASSERT_TRUE(mapping::mesh_for_simulation(source, renamed, m, retagged, why)) << why;
+  ASSERT_TRUE(mapping::mesh_for_simulation(source, renamed, m.vertices, retagged, why)) << why;
   for (const builder::Region& g : source.regions) {
     const auto c = std::find_if(canonical.regions.begin(), canonical.regions.end(),
                                 [&](const builder::Region& h) { return h.name == g.name; });
@@ -189,7 +190,7 @@ TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
 
   // A canonical face in a region the source lacks has no face to take its tag from.
   renamed.regions.push_back({"nowhere", "fixed", {renamed.triangle_tags[0]}});
-  EXPECT_FALSE(mapping::mesh_for_simulation(source, renamed, m, retagged, why));
+  EXPECT_FALSE(mapping::mesh_for_simulation(source, renamed, m.vertices, retagged, why));
   EXPECT_NE(why.find("nowhere"), std::string::npos) << why;
 
   // A host without simulate, and a mesh with an inverted tet: infeasible, with the reason.

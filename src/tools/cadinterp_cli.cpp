@@ -1362,6 +1362,11 @@ int cmd_build(const std::vector<std::string>& args) {
   p.option("lossy-positions", 0, "ERR",
            "max absolute error the codec may add to positions,\nin model units (0: lossless)",
            &o.position_max_abs_error, 0, 1e300);
+  bool simulate_mapped = false;
+  p.flag("simulate-mapped", 0,
+         "a sample mapped onto another's mesh gets the host's simulate\non the mapped mesh "
+         "instead of its own fields carried over",
+         &simulate_mapped);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &quiet);
   p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
@@ -1373,6 +1378,7 @@ int cmd_build(const std::vector<std::string>& args) {
            "      --geometry-tol 1e-3 --max-samples 500 --store bracket.db -o bracket.cadi");
   if (!p.parse(args)) return kExitOk;
   o.degree = std::stoi(degree);
+  o.simulate_mapped = simulate_mapped ? 1 : 0;
   if (!store.empty()) o.store_path = store.c_str();
 
   LoadedHost host;
@@ -1442,6 +1448,11 @@ int cmd_build(const std::vector<std::string>& args) {
       std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
     std::fprintf(out, "  elements           %d (infeasible %d, of which unmapped %d)\n", r.elements,
                  r.infeasible_elements, st.unmapped_elements);
+    if (o.simulate_mapped)
+      std::fprintf(out,
+                   "  simulate mapped    %d mapped terms simulated on their mapped mesh, %d "
+                   "failed (their fields carried over)\n",
+                   st.mapped_simulated, st.mapped_simulate_failures);
     std::fprintf(
         out,
         "  stages             store %s, sampling %s, refinement %s, elements %s, "

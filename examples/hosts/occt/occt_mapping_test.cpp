@@ -12,6 +12,7 @@
 
 #include "builder/host_call.h"
 #include "builder/sample.h"
+#include "mapping/field_transfer.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
 #include "occt_host.h"
@@ -147,7 +148,7 @@ TEST(OcctMapping, FieldsCarriedAgreeWithTheHostsFemOnTheMappedMesh) {
   std::string why;
   ASSERT_TRUE(mapping::map_sample(a, c, m, why)) << why;
   builder::Sample mesh;
-  ASSERT_TRUE(mapping::mesh_for_simulation(a, c, m, mesh, why)) << why;
+  ASSERT_TRUE(mapping::mesh_for_simulation(a, c, m.vertices, mesh, why)) << why;
   const builder::Sample fem = host.simulate(xa.data(), mesh);
   ASSERT_TRUE(fem.feasible) << fem.message;
   const std::vector<mapping::FieldError> errors = mapping::compare_fields(a, m, fem);
