@@ -57,6 +57,20 @@ struct Model::Impl {
   }
   mutable std::mutex lock;
   mutable StageTimes times;
+  /// The regions by x (the host's K values), of every successful evaluation: simulate
+  /// needs nothing else besides the mesh it is handed, which need not be the one meshed here (a
+  /// mapped mesh, paper §6). Under `lock`; bounded by kNamedKept.
+  mutable std::map<std::vector<double>, std::shared_ptr<const Evaluation>> named;
+  static constexpr std::size_t kNamedKept = 4096;
+
+  void keep_named(const double* x, const Evaluation& e) const {
+    auto n = std::make_shared<Evaluation>();
+    n->ok = true;
+    n->regions = e.regions;
+    std::lock_guard<std::mutex> g(lock);
+    if (named.size() >= kNamedKept) named.clear();
+    named[std::vector<double>(x, x + params.size())] = std::move(n);
+  }
 
   void count(const StageTimes& t) const {
     std::lock_guard<std::mutex> g(lock);
@@ -259,12 +273,33 @@ std::string failure_text(const Standard_Failure& f) {
 
 }  // namespace
 
-Evaluation Model::evaluate(const double* x) const {
-  const Impl& m = *impl_;
+namespace {
+
+// The B-rep's face tags and labels and the model's named regions on them.
+void name_faces(const NamedShape& s, const ModelDef& def, Evaluation& e) {
+  for (FaceNameMap::Iterator it(s.faces); it.More(); it.Next())
+    e.faces.emplace_back(face_tag(it.Value().label), it.Value().label);
+  std::sort(e.faces.begin(), e.faces.end());
+  for (const RegionDef& r : def.regions) {
+    Region region{r.name, r.kind, {}};
+    for (FaceNameMap::Iterator it(s.faces); it.More(); it.Next())
+      for (const std::string& root : it.Value().roots)
+        if (std::find(r.roots.begin(), r.roots.end(), root) != r.roots.end())
+          region.tags.push_back(face_tag(it.Value().label));
+    std::sort(region.tags.begin(), region.tags.end());
+    region.tags.erase(std::unique(region.tags.begin(), region.tags.end()), region.tags.end());
+    if (region.tags.empty()) throw Infeasible("region '" + r.name + "' lost all its faces");
+    e.regions.push_back(std::move(region));
+  }
+}
+
+// Regenerates the model at x and names its faces; with `mesh`, also its volumes, the tet mesh
+// and the references (Model::evaluate), else only the regions (Model::named).
+Evaluation regenerate(const Model::Impl& m, const double* x, bool mesh) {
   Evaluation e;
   StageTimes t;
   t.regenerations = 1;
-  for (int i = 0; i < parameter_count(); ++i) {
+  for (int i = 0; i < static_cast<int>(m.params.size()); ++i) {
     const auto& p = m.params[static_cast<std::size_t>(i)];
     const double slack = 1e-9 * (p.upper - p.lower);
     if (!std::isfinite(x[i]) || x[i] < p.lower - slack || x[i] > p.upper + slack) {
@@ -279,37 +314,27 @@ Evaluation Model::evaluate(const double* x) const {
   try {
     auto t0 = Clock::now();
     const NamedShape s = regenerate_checked(*m.def, m.full(x).data());
-    e.exact_volume = volume_of(s.shape);
+    if (mesh) e.exact_volume = volume_of(s.shape);
     t.regenerate = since(t0);
 
-    stage = "mesh";
-    MeshTimes mt;
-    TetMeshData mesh = mesh_shape(s, m.mesh, mt);
-    t.tessellate = mt.tessellate;
-    t.tetgen = mt.tetgen;
-    e.mesh_volume = mesh_volume(mesh);
-    e.vertices = std::move(mesh.vertices);
-    e.tets = std::move(mesh.tets);
-    e.triangles = std::move(mesh.triangles);
-    e.triangle_tags = std::move(mesh.triangle_tags);
+    if (mesh) {
+      stage = "mesh";
+      MeshTimes mt;
+      TetMeshData tets = mesh_shape(s, m.mesh, mt);
+      t.tessellate = mt.tessellate;
+      t.tetgen = mt.tetgen;
+      e.mesh_volume = mesh_volume(tets);
+      e.vertices = std::move(tets.vertices);
+      e.tets = std::move(tets.tets);
+      e.triangles = std::move(tets.triangles);
+      e.triangle_tags = std::move(tets.triangle_tags);
+    }
 
     stage = "references";
     t0 = Clock::now();
-    add_references(s, m.levels, e.points, e.paths);
-    for (FaceNameMap::Iterator it(s.faces); it.More(); it.Next())
-      e.faces.emplace_back(face_tag(it.Value().label), it.Value().label);
-    std::sort(e.faces.begin(), e.faces.end());
-    for (const RegionDef& r : m.def->regions) {
-      Region region{r.name, r.kind, {}};
-      for (FaceNameMap::Iterator it(s.faces); it.More(); it.Next())
-        for (const std::string& root : it.Value().roots)
-          if (std::find(r.roots.begin(), r.roots.end(), root) != r.roots.end())
-            region.tags.push_back(face_tag(it.Value().label));
-      std::sort(region.tags.begin(), region.tags.end());
-      region.tags.erase(std::unique(region.tags.begin(), region.tags.end()), region.tags.end());
-      if (region.tags.empty()) throw Infeasible("region '" + r.name + "' lost all its faces");
-      e.regions.push_back(std::move(region));
-    }
+    if (mesh) add_references(s, m.levels, e.points, e.paths);
+    name_faces(s, *m.def, e);
+    if (!mesh) e.faces.clear();  // as the ones kept by x
     t.references = since(t0);
     e.ok = true;
   } catch (const Infeasible& ex) {
@@ -322,17 +347,27 @@ Evaluation Model::evaluate(const double* x) const {
     e.message = std::string(stage) + ": " + ex.what();
   }
   if (!e.ok) {
-    e.vertices.clear();
-    e.tets.clear();
-    e.triangles.clear();
-    e.triangle_tags.clear();
-    e.points.clear();
-    e.paths.clear();
-    e.regions.clear();
+    Evaluation failed;
+    failed.message = std::move(e.message);
+    e = std::move(failed);
     t.failures = 1;
   }
   m.count(t);
+  if (e.ok) m.keep_named(x, e);
   return e;
+}
+
+}  // namespace
+
+Evaluation Model::evaluate(const double* x) const { return regenerate(*impl_, x, true); }
+
+std::shared_ptr<const Evaluation> Model::named(const double* x) const {
+  {
+    std::lock_guard<std::mutex> l(impl_->lock);
+    const auto it = impl_->named.find(std::vector<double>(x, x + parameter_count()));
+    if (it != impl_->named.end()) return it->second;
+  }
+  return std::make_shared<const Evaluation>(regenerate(*impl_, x, false));
 }
 
 double Model::exact_volume(const double* x) const {
@@ -473,9 +508,9 @@ std::vector<std::string> model_names() {
 namespace {
 
 // The builder calls regenerate, references and simulate for one x with one sample in turn: the
-// evaluation is kept between them, keyed by the sample (and checked against model and x; a miss
-// just evaluates again). No thread_local: a dlopen'd library's TLS outlives its unloading, and
-// LeakSanitizer reports it.
+// evaluation is kept between the first two, keyed by the sample (and checked against model and
+// x; a miss just evaluates again); simulate needs only the regions (Model::named). No thread_local:
+// a dlopen'd library's TLS outlives its unloading, and LeakSanitizer reports it.
 struct Cached {
   const Model* model = nullptr;
   std::vector<double> x;
@@ -507,6 +542,12 @@ std::shared_ptr<const Evaluation> evaluation(const Model* m, const double* x,
     cache()[sample] = Cached{m, key, e};
   }
   return e;
+}
+
+// Drops the sample's entry after its last callback.
+void forget(const cadinterp_sample* sample) {
+  std::lock_guard<std::mutex> l(g_cache_lock);
+  cache().erase(sample);
 }
 
 cadinterp_status fail(cadinterp_sample* out, const std::string& message) {
@@ -563,9 +604,16 @@ cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host
                                cadinterp_sample* out) {
   try {
     const Model* m = static_cast<const Model*>(user);
-    // The mesh the builder hands back is the one regenerate wrote; use it as given.
-    Evaluation e = *evaluation(m, x, out, true);
-    if (!e.ok) return fail(out, e.message);
+    forget(out);
+    // The mesh handed in is the one regenerate wrote, or a mapped one in another sample's
+    // combinatorics whose face tags name this solid's faces at x (paper §6; the builder's
+    // simulate_mapped): either way the FEM takes it as given and needs only the regions at x,
+    // which the evaluation at x recorded (no second regeneration).
+    const auto named = m->named(x);
+    if (!named->ok) return fail(out, named->message);
+    Evaluation e;
+    e.ok = true;
+    e.regions = named->regions;
     e.vertices.assign(mesh->vertices, mesh->vertices + 3 * mesh->vertex_count);
     e.tets.assign(mesh->tets, mesh->tets + 4 * mesh->tet_count);
     e.triangles.assign(mesh->triangles, mesh->triangles + 3 * mesh->triangle_count);

@@ -101,9 +101,14 @@ class Model {
   /// Regenerates, meshes and names the model at x (K values). Never throws: a failure gives
   /// ok = false and a message (Standard_Failure, invalid solid, TetGen, ...).
   Evaluation evaluate(const double* x) const;
+  /// The boundary-condition regions at x (ok, message and regions; the rest empty): an earlier
+  /// successful evaluate or named at the same x if any (the last 4096 x kept), else the solid
+  /// regenerated and named without meshing. Never throws but std::bad_alloc.
+  std::shared_ptr<const Evaluation> named(const double* x) const;
   /// The exact volume of the solid at x (BRepGProp); throws std::runtime_error if x fails.
   double exact_volume(const double* x) const;
-  /// Runs the FEM on an evaluation (throws std::runtime_error, or physics::Error).
+  /// Runs the FEM on an evaluation's mesh and regions (throws std::runtime_error, or
+  /// physics::Error).
   Fields simulate(const double* x, const Evaluation& e) const;
   /// Whether this build links the FEM (examples/physics).
   static bool has_physics();

@@ -229,6 +229,34 @@ TEST(OcctHost, RegionsLieOnTheirFeaturesFaces) {
   EXPECT_GT(n_jaw, 0);
 }
 
+// Simulate on a mapped mesh (paper §6) needs the regions at x only: named gives them without
+// meshing, and without regenerating at an x evaluated before.
+TEST(OcctHost, NamedGivesTheRegionsWithoutMeshingOrASecondRegeneration) {
+  occt::Model model("wrench", coarse("wrench"));
+  const double x[] = {15, 100, 4, 0}, y[] = {16, 110, 5, 10};
+  const auto n = model.named(x);
+  ASSERT_TRUE(n->ok) << n->message;
+  EXPECT_EQ(model.stage_times().regenerations, 1);
+  EXPECT_EQ(model.stage_times().tessellate, 0.0);
+  EXPECT_TRUE(n->vertices.empty());
+  const occt::Evaluation e = model.evaluate(x);
+  ASSERT_TRUE(e.ok) << e.message;
+  ASSERT_EQ(n->regions.size(), e.regions.size());
+  for (std::size_t i = 0; i < e.regions.size(); ++i) {
+    EXPECT_EQ(n->regions[i].name, e.regions[i].name);
+    EXPECT_EQ(n->regions[i].kind, e.regions[i].kind);
+    EXPECT_EQ(n->regions[i].tags, e.regions[i].tags);
+  }
+  ASSERT_TRUE(model.evaluate(y).ok);
+  const int regenerations = model.stage_times().regenerations;
+  EXPECT_EQ(model.named(y)->regions.size(), e.regions.size());
+  EXPECT_EQ(model.named(x)->regions[0].tags, e.regions[0].tags);
+  EXPECT_EQ(model.stage_times().regenerations, regenerations);
+  const double outside[] = {30, 100, 4, 0};
+  EXPECT_FALSE(model.named(outside)->ok);
+  EXPECT_NE(model.named(outside)->message.find("head_radius"), std::string::npos);
+}
+
 TEST(OcctHost, ReferencesFollowTheIdScheme) {
   occt::Model model("wrench", coarse("wrench") + ",levels=2");
   const double x[] = {15, 100, 4, 0};

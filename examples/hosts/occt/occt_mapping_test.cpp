@@ -149,8 +149,10 @@ TEST(OcctMapping, FieldsCarriedAgreeWithTheHostsFemOnTheMappedMesh) {
   ASSERT_TRUE(mapping::map_sample(a, c, m, why)) << why;
   builder::Sample mesh;
   ASSERT_TRUE(mapping::mesh_for_simulation(a, c, m.vertices, mesh, why)) << why;
+  const int regenerations = model.stage_times().regenerations;
   const builder::Sample fem = host.simulate(xa.data(), mesh);
   ASSERT_TRUE(fem.feasible) << fem.message;
+  EXPECT_EQ(model.stage_times().regenerations, regenerations);  // the regions at xa are kept
   const std::vector<mapping::FieldError> errors = mapping::compare_fields(a, m, fem);
   std::map<std::string, mapping::FieldError> by_name;
   for (const mapping::FieldError& e : errors) {
