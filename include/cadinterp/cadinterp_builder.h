@@ -297,6 +297,9 @@ typedef struct cadinterp_build_stages {
    * cache and needed again counts again. */
   int mapped_simulated;
   int mapped_simulate_failures;
+  /** The host's message for the first of those failures ("" if none); valid until the next run
+   * or destroy. */
+  const char* first_mapped_simulate_failure;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed. Fills at most

@@ -289,6 +289,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.unmapped_elements = d.unmapped_elements;
   s.mapped_simulated = d.mapped_simulated;
   s.mapped_simulate_failures = d.mapped_simulate_failures;
+  s.first_mapped_simulate_failure = d.first_mapped_simulate_failure.c_str();
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

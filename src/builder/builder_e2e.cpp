@@ -51,6 +51,10 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
   r.error = cadinterp_builder_error(b);
   cadinterp_builder_report(b, &r.report);
   cadinterp_builder_stages(b, &r.stages);
+  // The builder owns the message: copied before it goes, the dangling pointer cleared.
+  if (r.stages.first_mapped_simulate_failure)
+    r.first_mapped_simulate_failure = r.stages.first_mapped_simulate_failure;
+  r.stages.first_mapped_simulate_failure = nullptr;
   cadinterp_builder_destroy(b);
   return r;
 }

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -220,6 +222,50 @@ TEST(EndToEnd, SimulateMappedTermsHoldTheHostsFieldsOnTheirMappedMesh) {
                 1e-4 * closed.field_max_by_field[k] + 1e-6)
         << own.field_names[k];
   }
+
+  // A host whose simulate refuses every mesh but the one it regenerated (the first simulate at
+  // an x; the builder simulates each sample once, its mapped terms later): the build goes on,
+  // those terms keep their carried fields, and the host's message reaches the caller.
+  struct OwnMeshOnly {
+    const cadinterp_host* inner;
+    std::mutex lock;
+    std::set<std::vector<double>> simulated;
+  } own_only{h, {}, {}};
+  cadinterp_host picky = *h;
+  picky.user = &own_only;
+  picky.regenerate = [](void* u, const double* x, cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<OwnMeshOnly*>(u)->inner;
+    return in->regenerate(in->user, x, out);
+  };
+  picky.references = [](void* u, const double* x, cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<OwnMeshOnly*>(u)->inner;
+    return in->references(in->user, x, out);
+  };
+  picky.simulate = [](void* u, const double* x, const cadinterp_host_mesh* mesh,
+                      cadinterp_sample* out) {
+    auto* w = static_cast<OwnMeshOnly*>(u);
+    {
+      std::lock_guard<std::mutex> l(w->lock);
+      if (!w->simulated.insert(std::vector<double>(x, x + w->inner->parameter_count)).second) {
+        cadinterp_sample_set_message(out, "test host: only the mesh it regenerated");
+        return CADINTERP_E_INFEASIBLE;
+      }
+    }
+    return w->inner->simulate(w->inner->user, x, mesh, out);
+  };
+  const std::string refused = temp_path("plate_refused.cadi");
+  const builder::BuildOutcome rr = build(&picky, o, refused);
+  ASSERT_EQ(rr.status, CADINTERP_OK) << rr.error;
+  EXPECT_EQ(rr.stages.mapped_simulated, 0);
+  EXPECT_GT(rr.stages.mapped_simulate_failures, 0);
+  EXPECT_NE(rr.first_mapped_simulate_failure.find("test host: only the mesh it regenerated"),
+            std::string::npos)
+      << rr.first_mapped_simulate_failure;
+  EXPECT_TRUE(rs.first_mapped_simulate_failure.empty());
+  const std::vector<double> er = corner_displacement_errors(refused, model);
+  ASSERT_EQ(er.size(), 8u);
+  EXPECT_EQ(er, ec);  // the carried fields, as without the option
+  std::filesystem::remove(refused);
 
   // A host without simulate cannot build so: refused by name.
   cadinterp_host bare = *h;

@@ -666,7 +666,9 @@ TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
     EXPECT_EQ(st.points_requested, c.host_evaluations);
     EXPECT_EQ(st.infeasible_reasons, 1);
     EXPECT_GT(st.sampling_seconds, 0.0);
-    EXPECT_EQ(st.write_seconds, 0.0);  // nothing was written
+    EXPECT_EQ(st.write_seconds, 0.0);                      // nothing was written
+    ASSERT_NE(st.first_mapped_simulate_failure, nullptr);  // "" when none: never NULL
+    EXPECT_STREQ(st.first_mapped_simulate_failure, "");
     const char* msg = nullptr;
     int count = 0;
     ASSERT_EQ(cadinterp_builder_infeasible_reason(b, 0, &msg, &count), CADINTERP_OK);

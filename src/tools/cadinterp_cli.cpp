@@ -1453,6 +1453,8 @@ int cmd_build(const std::vector<std::string>& args) {
                    "  simulate mapped    %d mapped terms simulated on their mapped mesh, %d "
                    "failed (their fields carried over)\n",
                    st.mapped_simulated, st.mapped_simulate_failures);
+    if (st.mapped_simulate_failures > 0)
+      std::fprintf(out, "    first failure    %s\n", st.first_mapped_simulate_failure);
     std::fprintf(
         out,
         "  stages             store %s, sampling %s, refinement %s, elements %s, "

@@ -149,6 +149,7 @@ int main(int argc, char** argv) {
     int K = 0, depth = 0, samples = 0, infeasible = 0, elements = 0, bad_elements = 0, stored = 0;
     int unmapped = 0;  // of bad_elements: samples feasible, a term not mapped
     int simulated = 0, simulate_failures = 0;  // --simulate-mapped: mapped terms
+    std::string first_simulate_failure;
     double mesh_tets = 0, per_sample = 0;
     cadinterp::occt::StageTimes stages;
     bool accuracy = false;
@@ -210,6 +211,7 @@ int main(int argc, char** argv) {
     row.unmapped = b.stages.unmapped_elements;
     row.simulated = b.stages.mapped_simulated;
     row.simulate_failures = b.stages.mapped_simulate_failures;
+    row.first_simulate_failure = b.first_mapped_simulate_failure;
     row.stored = b.report.stored_meshes;
     row.per_sample =
         b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : 0;
@@ -279,11 +281,15 @@ int main(int argc, char** argv) {
         p ? p->storage : 0, r.per_sample);
   }
   if (simulate_mapped)
-    for (const Row& r : rows)
+    for (const Row& r : rows) {
       std::printf(
           "         %-11s  mapped terms simulated on their mapped mesh: %d (%d failed, "
           "their fields carried over)\n",
           r.model.c_str(), r.simulated, r.simulate_failures);
+      if (r.simulate_failures > 0)
+        std::printf("         %-11s  the first failure: %s\n", "",
+                    r.first_simulate_failure.c_str());
+    }
   std::printf(
       "\nStage times per regeneration (s): model  regenerate  tessellate  tetgen  "
       "references  physics  (regenerations, failed)\n");
