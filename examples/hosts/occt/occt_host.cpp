@@ -544,12 +544,6 @@ std::shared_ptr<const Evaluation> evaluation(const Model* m, const double* x,
   return e;
 }
 
-// Drops the sample's entry after its last callback.
-void forget(const cadinterp_sample* sample) {
-  std::lock_guard<std::mutex> l(g_cache_lock);
-  cache().erase(sample);
-}
-
 cadinterp_status fail(cadinterp_sample* out, const std::string& message) {
   cadinterp_sample_set_message(out, message.c_str());
   return CADINTERP_E_INFEASIBLE;
@@ -572,8 +566,7 @@ cadinterp_status host_regenerate(void* user, const double* x, cadinterp_sample* 
 
 cadinterp_status host_references(void* user, const double* x, cadinterp_sample* out) {
   try {
-    const Model* m = static_cast<const Model*>(user);
-    const auto ep = evaluation(m, x, out, m->host()->simulate == nullptr);
+    const auto ep = evaluation(static_cast<const Model*>(user), x, out, true);
     const Evaluation& e = *ep;
     if (!e.ok) return fail(out, e.message);
     for (const ControlPoint& p : e.points) {
@@ -604,7 +597,6 @@ cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host
                                cadinterp_sample* out) {
   try {
     const Model* m = static_cast<const Model*>(user);
-    forget(out);
     // The mesh handed in is the one regenerate wrote, or a mapped one in another sample's
     // combinatorics whose face tags name this solid's faces at x (paper §6; the builder's
     // simulate_mapped): either way the FEM takes it as given and needs only the regions at x,
