@@ -223,6 +223,16 @@ typedef struct cadinterp_build_options {
    * difference between two meshes' solutions. One more simulate per mapped term; where it fails
    * the carried fields stay (counted in cadinterp_build_stages). Needs a host with simulate. */
   int simulate_mapped;
+  /** Rounds of canonical refinement (default 3; 0: none). A term mapped onto its element's
+   * canonical mesh keeps that mesh's combinatorics, so where the term's shape bends under a
+   * canonical triangle (a hole's round wall where the canonical sample has a flat face) the
+   * mapped triangle is a chord of it. Where some term's mapped boundary departs from its own
+   * boundary by more than 0.7 x geometry_tolerance, the element's canonical mesh gets those
+   * boundary edges bisected (every tet around one split in two, no interior vertex added) and
+   * every term is mapped again onto it, for at most this many rounds, each kept only if every
+   * term maps and the departure falls, adding at most half the canonical's vertex count. The
+   * asset then stores that element on the refined mesh (counted in cadinterp_build_stages). */
+  int canonical_refinement;
 } cadinterp_build_options;
 
 /** Fills `options` with the defaults above (struct_size included). */
@@ -300,6 +310,10 @@ typedef struct cadinterp_build_stages {
   /** The host's message for the first of those failures ("" if none); valid until the next run
    * or destroy. */
   const char* first_mapped_simulate_failure;
+  /** canonical_refinement: elements whose canonical mesh was refined, and the vertices added to
+   * their canonical meshes in all. */
+  int refined_elements;
+  int refined_vertices;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed. Fills at most

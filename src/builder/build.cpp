@@ -19,6 +19,7 @@
 #include "cadinterp/cadinterp_version.h"
 #include "core/adaptive.h"
 #ifdef CADINTERP_HAVE_MAPPING
+#include "mapping/canonical_refine.h"
 #include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mesh_mapper.h"
@@ -293,15 +294,9 @@ class MeshProblem final : public core::AdaptiveProblem {
       const bool ok = mapper_.map(sample(src), sample(canon), *m, why);
       std::string unsimulated;
       const bool simulated =
-          ok && opt_.simulate_mapped && simulate_on_mapped(src, canon, *m, unsimulated);
+          ok && opt_.simulate_mapped && simulate_on_mapped(src, sample(canon), *m, unsimulated);
       std::lock_guard<std::mutex> lock(maps_mu_);
-      if (ok && opt_.simulate_mapped) {
-        if (simulated) {
-          ++details_.mapped_simulated;
-        } else if (details_.mapped_simulate_failures++ == 0) {
-          details_.first_mapped_simulate_failure = unsimulated;
-        }
-      }
+      if (ok && opt_.simulate_mapped) count_simulated(simulated, unsimulated);
       if (!ok) {
         failures_.emplace(key, why);
         return false;
@@ -327,14 +322,14 @@ class MeshProblem final : public core::AdaptiveProblem {
     for (const auto& f : found->fields) v.fields.push_back(f.data());
     return true;
   }
-  /// simulate_mapped: replaces the carried fields of `m` (row src mapped onto row canon's mesh)
+  /// simulate_mapped: replaces the carried fields of `m` (row src mapped onto `canon`'s mesh)
   /// by the host's simulate at row src's x on that mesh. False with `why` (m untouched) where
   /// the regions cannot be placed, the host fails, or it returns other fields.
-  bool simulate_on_mapped(int src, int canon, MappedSample& m, std::string& why) const {
+  bool simulate_on_mapped(int src, const Sample& canon, MappedSample& m, std::string& why) const {
 #ifdef CADINTERP_HAVE_MAPPING
     const Sample& s = sample(src);
     Sample mesh;
-    if (!mapping::mesh_for_simulation(s, sample(canon), m.vertices, mesh, why)) return false;
+    if (!mapping::mesh_for_simulation(s, canon, m.vertices, mesh, why)) return false;
     const Sample r = host_.simulate(point(src).data(), mesh);
     if (!r.feasible) {
       why = r.message;
@@ -361,6 +356,20 @@ class MeshProblem final : public core::AdaptiveProblem {
     return false;
 #endif
   }
+
+  /// Counts one simulate_mapped outcome (the caller holds maps_mu_ or runs alone).
+  void count_simulated(bool simulated, const std::string& unsimulated) {
+    if (simulated) {
+      ++details_.mapped_simulated;
+    } else if (details_.mapped_simulate_failures++ == 0) {
+      details_.first_mapped_simulate_failure = unsimulated;
+    }
+  }
+  /// True when rows a and b share combinatorics (their terms are blended without a mapping).
+  bool same_class(int a, int b) const {
+    return classes_[static_cast<std::size_t>(a)] == classes_[static_cast<std::size_t>(b)];
+  }
+  const Mapper& mapper() const { return mapper_; }
 
   const std::string& why(int src, int canon) {
     std::lock_guard<std::mutex> lock(maps_mu_);
@@ -491,7 +500,8 @@ std::string options_json(const BuildOptions& o, const char* mapper_name) {
               ? std::string(",\"neighbour_transfer\":\"") +
                     (o.neighbour_transfer == NeighbourTransfer::Always ? "always" : "direct") + "\""
               : std::string()) +
-         (o.simulate_mapped ? ",\"simulate_mapped\":true" : "") + "}";
+         (o.simulate_mapped ? ",\"simulate_mapped\":true" : "") +
+         ",\"canonical_refinement\":" + std::to_string(o.canonical_refinement) + "}";
 }
 
 namespace {
@@ -734,9 +744,57 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
         ok = false;
       }
     }
-    if (ok) {
+    // Canonical refinement (mapping/canonical_refine.h): where a mapped term's boundary departs
+    // from its own by more than 0.7 x the geometry tolerance (a bend of the term's shape under a
+    // canonical triangle), the element's canonical mesh is refined there and every term mapped
+    // again onto it. Elements with a term carried by the cubic neighbour transfer keep theirs
+    // (the bridge is defined on the canonical sample's own mesh).
+    Sample refined;
+    std::vector<MappedSample> remapped;
+    bool use_refined = false;
+#ifdef CADINTERP_HAVE_MAPPING
+    if (ok && opt.canonical_refinement > 0 &&
+        std::none_of(bridged.begin(), bridged.end(), [](const auto& b) { return b != nullptr; })) {
       const Sample& canon = problem.sample(crow);
-      if (!field_source) field_source = &canon;
+      const double tolerance = 0.7 * opt.geometry_tolerance;
+      bool departs = false;
+      for (int t = 0; !departs && t < n; ++t) {
+        const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
+        if (problem.same_class(row, crow) || !problem.view(row, crow, m)) continue;
+        const std::vector<double> v(m.vertices, m.vertices + canon.vertices.size());
+        departs = mapping::mapped_departure(problem.sample(row), canon, v, tolerance, nullptr) >
+                  tolerance;
+      }
+      if (departs) {
+        std::vector<const Sample*> sources;
+        for (int t = 0; t < n; ++t)
+          sources.push_back(&problem.sample(run.sample_row[static_cast<std::size_t>(terms[t])]));
+        mapping::RefineOptions ro;
+        ro.tolerance = tolerance;
+        ro.rounds = opt.canonical_refinement;
+        ro.threads = std::max(1, exec.concurrency());
+        mapping::RefineStats rs;
+        std::string why;
+        if (mapping::refine_canonical(sources, canon, problem.mapper(), refined, remapped, why, &rs,
+                                      ro) &&
+            rs.rounds > 0) {
+          use_refined = true;
+          ++details.refined_elements;
+          details.refined_vertices += static_cast<int>(rs.added_vertices);
+          for (int t = 0; opt.simulate_mapped && t < n; ++t) {
+            std::string unsimulated;
+            const bool simulated = problem.simulate_on_mapped(
+                run.sample_row[static_cast<std::size_t>(terms[t])], refined,
+                remapped[static_cast<std::size_t>(t)], unsimulated);
+            problem.count_simulated(simulated, unsimulated);
+          }
+        }
+      }
+    }
+#endif
+    if (ok) {
+      const Sample& canon = use_refined ? refined : problem.sample(crow);
+      if (!field_source) field_source = &problem.sample(crow);
       const std::size_t nv3 = canon.vertices.size();
       ed.vertex_count = static_cast<std::uint32_t>(canon.vertex_count());
       ed.tets = canon.tets;
@@ -745,7 +803,9 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
       ed.canonical = to_float(canon.vertices);
       // One term at a time: a view stays valid only until the next view() call.
       for (int t = 0; t < n; ++t) {
-        if (const MappedSample* b = bridged[static_cast<std::size_t>(t)].get()) {
+        const MappedSample* b = use_refined ? &remapped[static_cast<std::size_t>(t)]
+                                            : bridged[static_cast<std::size_t>(t)].get();
+        if (b) {
           m.vertices = b->vertices.data();
           m.fields.clear();
           for (const auto& f : b->fields) m.fields.push_back(f.data());

@@ -82,6 +82,10 @@ struct BuildOptions {
   /// the mapped mesh (mapping component only; terms carried through a shared sample by the cubic
   /// neighbour transfer keep the carried fields).
   bool simulate_mapped = false;
+  /// cadinterp_build_options::canonical_refinement: rounds of canonical refinement
+  /// (mapping/canonical_refine.h) for an element whose mapped terms depart from their own
+  /// boundary by more than 0.7 x geometry_tolerance (0: none; mapping component only).
+  int canonical_refinement = 3;
 };
 
 /// A point where the host failed, with its message.
@@ -125,6 +129,9 @@ struct BuildReport {
   /// fields kept; the first failure's message).
   int mapped_simulated = 0, mapped_simulate_failures = 0;
   std::string first_mapped_simulate_failure;
+  /// canonical_refinement: elements whose canonical mesh was refined, and the vertices added
+  /// to their canonical meshes in all.
+  int refined_elements = 0, refined_vertices = 0;
   /// Wall time per stage (seconds). store: opening the sample store; sampling: the refinement's
   /// waves of sample points (store reads, host evaluations, store writes); refinement: the rest
   /// of the adaptive run (error tests, including the mapping they need); elements: canonical

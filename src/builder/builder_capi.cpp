@@ -185,6 +185,7 @@ CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
   o->field_tolerance = 1e-2;
   o->max_samples = 256;
   o->max_depth = 8;
+  o->canonical_refinement = 3;
 }
 
 CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
@@ -215,6 +216,9 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
     bo.store_path = o.store_path ? o.store_path : "";
     bo.position_max_abs_error = o.position_max_abs_error;
     bo.simulate_mapped = o.simulate_mapped != 0;
+    bo.canonical_refinement = o.canonical_refinement;
+    if (bo.canonical_refinement < 0 || bo.canonical_refinement > 20)
+      throw std::invalid_argument("options: canonical_refinement must be 0..20");
     if (!(bo.geometry_tolerance > 0) || !(bo.field_tolerance > 0))
       throw std::invalid_argument("options: tolerances must be positive");
     if (bo.max_samples < 2) throw std::invalid_argument("options: max_samples must be >= 2");
@@ -290,6 +294,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.mapped_simulated = d.mapped_simulated;
   s.mapped_simulate_failures = d.mapped_simulate_failures;
   s.first_mapped_simulate_failure = d.first_mapped_simulate_failure.c_str();
+  s.refined_elements = d.refined_elements;
+  s.refined_vertices = d.refined_vertices;
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

@@ -17,6 +17,7 @@
 #include "analytic_host.h"
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
+#include "builder/surface_distance.h"
 #include "cadinterp/cadinterp_builder.h"
 #ifdef CADINTERP_HAVE_MAPPING
 #include "mapping/interior_solve.h"
@@ -308,6 +309,112 @@ TEST(EndToEnd, FoldplateBuildsAcrossTopologyChanges) {
   EXPECT_LT(a.geometry_max, 10 * o.geometry_tolerance);
   EXPECT_LT(a.field_max, 10 * o.field_tolerance);
   std::filesystem::remove(path);
+}
+
+// Canonical refinement (mapping/canonical_refine.h): a bracket meshed coarsely up to a 120 degree
+// bend and finely beyond. The elements at the box's corners with a 135 degree bend have their
+// canonical mesh (the centre, at 112.5 degrees) coarse and their corner term fine: the coarse
+// triangles cut the fine bend as chords. At those corners (samples, so the asset gives the
+// mapped term alone) the refined build follows the host's own mesh more closely than the same
+// build without refinement, which refines nothing and is the same otherwise.
+TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
+#ifndef CADINTERP_HAVE_MAPPING
+  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
+#endif
+  struct TwoMeshes {
+    const cadinterp_host* coarse;
+    const cadinterp_host* fine;
+    const cadinterp_host* at(const double* x) const { return x[3] <= 120.0 ? coarse : fine; }
+  } two{host("bracket", "cells=3"), host("bracket", "cells=6")};
+  ASSERT_NE(two.coarse, nullptr);
+  ASSERT_NE(two.fine, nullptr);
+  cadinterp_host h = *two.fine;
+  h.identity = "bracket, cells=3 up to a 120 degree bend, cells=6 beyond";
+  h.user = &two;
+  h.regenerate = [](void* u, const double* x, cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<TwoMeshes*>(u)->at(x);
+    return in->regenerate(in->user, x, out);
+  };
+  h.references = [](void* u, const double* x, cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<TwoMeshes*>(u)->at(x);
+    return in->references(in->user, x, out);
+  };
+  h.simulate = [](void* u, const double* x, const cadinterp_host_mesh* mesh,
+                  cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<TwoMeshes*>(u)->at(x);
+    return in->simulate(in->user, x, mesh, out);
+  };
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  EXPECT_EQ(o.canonical_refinement, 3);  // the default
+  o.geometry_tolerance = 3e-3;
+  o.field_tolerance = 1.0;
+  o.max_samples = 20;
+  o.threads = 2;
+  const std::string refined = temp_path("bracket_refined.cadi");
+  const builder::BuildOutcome rr = build(&h, o, refined);
+  ASSERT_EQ(rr.status, CADINTERP_OK) << rr.error;
+  o.canonical_refinement = 0;
+  const std::string plain = temp_path("bracket_plain.cadi");
+  const builder::BuildOutcome rp = build(&h, o, plain);
+  ASSERT_EQ(rp.status, CADINTERP_OK) << rp.error;
+  EXPECT_GT(rr.stages.refined_elements, 0);
+  EXPECT_GT(rr.stages.refined_vertices, 0);
+  EXPECT_EQ(rp.stages.refined_elements, 0);
+  EXPECT_EQ(rp.stages.refined_vertices, 0);
+  // Refinement changes no sample: the same tree, the same elements.
+  EXPECT_EQ(rr.report.samples, rp.report.samples);
+  EXPECT_EQ(rr.report.elements, rp.report.elements);
+
+  // Per 135 degree corner: symmetric Hausdorff / diagonal against the host's mesh there, and
+  // the vertex count of the element's mesh.
+  const builder::Host truth(h);
+  auto at_corners = [&](const std::string& path, std::vector<double>& error,
+                        std::vector<std::uint32_t>& vertices) {
+    cadinterp_asset* asset = nullptr;
+    ASSERT_EQ(cadinterp_open(path.c_str(), &asset), CADINTERP_OK);
+    cadinterp_workspace* ws = nullptr;
+    ASSERT_EQ(cadinterp_workspace_create(asset, &ws), CADINTERP_OK);
+    for (int corner = 0; corner < 8; ++corner) {
+      double x[4];
+      for (int d = 0; d < 3; ++d) {
+        cadinterp_parameter_info p;
+        ASSERT_EQ(cadinterp_parameter(asset, d, &p), CADINTERP_OK);
+        x[d] = (corner >> d) & 1 ? p.upper : p.lower;
+      }
+      x[3] = 135.0;
+      cadinterp_mesh m;
+      ASSERT_EQ(cadinterp_eval(ws, x, nullptr, 0, &m), CADINTERP_OK);
+      const builder::Sample s = truth.evaluate(x);
+      ASSERT_TRUE(s.feasible);
+      const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
+      const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
+      error.push_back(builder::symmetric_hausdorff(V, F, s.vertices, s.triangles) /
+                      s.bbox_diagonal());
+      vertices.push_back(m.vertex_count);
+    }
+    cadinterp_workspace_destroy(ws);
+    cadinterp_close(asset);
+  };
+  std::vector<double> er, ep;
+  std::vector<std::uint32_t> vr, vp;
+  at_corners(refined, er, vr);
+  at_corners(plain, ep, vp);
+  ASSERT_EQ(er.size(), 8u);
+  ASSERT_EQ(ep.size(), 8u);
+  std::printf("[ figures ] two-mesh bracket: %d samples, %d elements, %d refined (+%d vertices)\n",
+              rr.report.samples, rr.report.elements, rr.stages.refined_elements,
+              rr.stages.refined_vertices);
+  for (std::size_t c = 0; c < 8; ++c) {
+    std::printf(
+        "[ figures ]   135 deg corner %zu: Hausdorff %.2e on %u vertices, without "
+        "refinement %.2e on %u\n",
+        c, er[c], vr[c], ep[c], vp[c]);
+    EXPECT_GT(vr[c], vp[c]) << "corner " << c;  // a refined element
+    EXPECT_LT(er[c], 0.5 * ep[c]) << "corner " << c;
+  }
+  std::filesystem::remove(refined);
+  std::filesystem::remove(plain);
 }
 
 // Cubic elements take samples of their neighbours (§5.3, Fig. 15). Carried from the neighbour's

@@ -136,7 +136,7 @@ int SurfaceIndex::cell_of(double v, int axis) const {
   return static_cast<int>(std::min(std::max(c, 0.0), static_cast<double>(n_[axis] - 1)));
 }
 
-double SurfaceIndex::distance(const double* p) const {
+double SurfaceIndex::distance(const double* p, std::size_t* triangle) const {
   if (F_.empty()) return std::numeric_limits<double>::infinity();
   int home[3];
   for (int c = 0; c < 3; ++c) home[c] = cell_of(p[c], c);
@@ -169,7 +169,10 @@ double SurfaceIndex::distance(const double* p) const {
             const std::size_t t = items_[q];
             const double d = point_triangle_sq(p, &V_[3 * F_[3 * t]], &V_[3 * F_[3 * t + 1]],
                                                &V_[3 * F_[3 * t + 2]]);
-            best = std::min(best, std::sqrt(d));
+            if (std::sqrt(d) < best) {
+              best = std::sqrt(d);
+              if (triangle) *triangle = t;
+            }
           }
         }
       }

@@ -3,6 +3,7 @@
 // end-to-end measurements.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -20,7 +21,10 @@ class SurfaceIndex {
   SurfaceIndex(const std::vector<double>& V, const std::vector<std::uint32_t>& F);
   /// Distance from p (3 values) to the closest point of the surface (infinity if it has no
   /// triangles).
-  double distance(const double* p) const;
+  double distance(const double* p) const { return distance(p, nullptr); }
+  /// The same, and the index of a closest triangle in *triangle (when not null; untouched if the
+  /// surface has no triangles).
+  double distance(const double* p, std::size_t* triangle) const;
 
  private:
   std::vector<double> V_;

@@ -35,6 +35,7 @@
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "mapping/boundary_untangle.h"
+#include "mapping/canonical_refine.h"
 #include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
@@ -99,6 +100,20 @@ double percentile(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
 }
+
+// map_sample with the command's options, as the Mapper that canonical_refine.h maps through.
+class OptionsMapper final : public builder::Mapper {
+ public:
+  explicit OptionsMapper(const mapping::MapOptions& options) : options_(options) {}
+  bool map(const builder::Sample& source, const builder::Sample& canonical,
+           builder::MappedSample& out, std::string& why) const override {
+    return mapping::map_sample(source, canonical, out, why, nullptr, options_);
+  }
+  const char* name() const override { return "report"; }
+
+ private:
+  const mapping::MapOptions& options_;
+};
 
 int pairs(const std::vector<std::string>& args) {
   std::string model = "plate", options = "edge=5", library, host_options;
@@ -194,8 +209,20 @@ int pairs(const std::vector<std::string>& args) {
   p.option("planar", 0, "0|1",
            "lay flat patches whose surface map folds into their plane (1) or not (0)", &planar, 0,
            1);
+  mapping::RefineOptions ro;
+  ro.rounds = 0;
+  p.option("refine", 0, "N",
+           "rounds of canonical refinement (canonical_refine.h): boundary edges bisected where the "
+           "mapped surface departs from the source's by more than --refine-tolerance, the pair "
+           "mapped again (0: none, the canonical as the host meshed it)",
+           &ro.rounds, 0, 20);
+  p.option("refine-tolerance", 0, "F", "departure (/ bbox diagonal) above which --refine bisects",
+           &ro.tolerance, 1e-6, 1.0);
+  p.option("refine-growth", 0, "F", "--refine adds at most F times the canonical's vertex count",
+           &ro.max_growth, 0.0, 100.0);
   if (!p.parse(args)) return 0;
   mo.planar_patches = planar != 0;
+  const OptionsMapper with_options(mo);
   mo.foldover_free = foldover_free != 0;
   mo.stiffening = stiffen;
   mo.geodesic_paths = geodesic != 0;
@@ -299,7 +326,18 @@ int pairs(const std::vector<std::string>& args) {
     builder::MappedSample m;
     std::string why;
     const auto t0 = Clock::now();
-    const bool ok = mapping::map_sample(a, c, m, why, nullptr, mo);
+    // With --refine the pair is measured on the refined canonical `cr`.
+    builder::Sample cr;
+    mapping::RefineStats rs;
+    bool ok;
+    if (ro.rounds > 0) {
+      std::vector<builder::MappedSample> onto;
+      ok = mapping::refine_canonical({&a}, c, with_options, cr, onto, why, &rs, ro);
+      if (ok) m = std::move(onto[0]);
+    } else {
+      ok = mapping::map_sample(a, c, m, why, nullptr, mo);
+    }
+    const builder::Sample& cm = ro.rounds > 0 && ok ? cr : c;
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (!ok) {
       ++failed;
@@ -308,13 +346,13 @@ int pairs(const std::vector<std::string>& args) {
       continue;
     }
     mapping::PairQuality q = mapping::measure_pair(
-        a, c, m,
+        a, cm, m,
         am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
           return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
         })
            : mapping::FieldTruth());
     // The canonical mesh's own quality, for comparison: the mapping cannot do better.
-    const double own = mapping::tet_quality(c.vertices, c.tets).min_scaled_jacobian;
+    const double own = mapping::tet_quality(cm.vertices, cm.tets).min_scaled_jacobian;
     char fmax[16] = "n/a", f99[16] = "n/a";
     std::string by_field;
     bool fields_measured = am != nullptr && !fem;
@@ -323,7 +361,7 @@ int pairs(const std::vector<std::string>& args) {
       q.field_max = q.field_p99 = 0;
       builder::Sample mesh;
       std::string no;
-      if (!mapping::mesh_for_simulation(a, c, m.vertices, mesh, no)) {
+      if (!mapping::mesh_for_simulation(a, cm, m.vertices, mesh, no)) {
         by_field = "not simulated: " + no;
       } else if (const builder::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
         by_field = "not simulated: " + r.message;
@@ -352,12 +390,17 @@ int pairs(const std::vector<std::string>& args) {
     if (fem)
       std::printf("      fields (max / p99) against the host's simulate on the mapped mesh: %s\n",
                   by_field.c_str());
+    if (ro.rounds > 0)
+      std::printf(
+          "      refined: %d rounds, +%zu canonical vertices (%zu), departure %.2e -> %.2e%s%s\n",
+          rs.rounds, rs.added_vertices, cm.vertex_count(), rs.before, rs.after,
+          rs.stopped.empty() ? "" : "; stopped by ", rs.stopped.c_str());
     if (where)
       std::printf("      Hausdorff max at (%.4g, %.4g, %.4g): %s vertex on face tag %d\n",
                   q.hausdorff_at[0], q.hausdorff_at[1], q.hausdorff_at[2],
                   q.hausdorff_at_source ? "a source" : "a mapped", q.hausdorff_tag);
     times.push_back(ms);
-    sizes_v.push_back(static_cast<double>(c.vertex_count()));
+    sizes_v.push_back(static_cast<double>(cm.vertex_count()));
     haus.push_back(q.hausdorff_max);
     haus99.push_back(q.hausdorff_p99);
     area.push_back(q.region_area_error);

@@ -7,6 +7,8 @@
 //   interior_solve.cpp    P1-harmonic interior with the surface map as Dirichlet data
 //   foldover_free.cpp     tangled regions (interior, or a flat patch in its plane) untangled
 //   field_transfer.cpp    per-vertex / per-tet fields at the mapped points
+// and, after a mapping, canonical_refine.cpp: the canonical's boundary bisected where a mapped
+// term departs from its own boundary (the builder's canonical_refinement).
 // Deterministic (no threads, no hash-order iteration) and const: safe from several threads.
 #pragma once
 

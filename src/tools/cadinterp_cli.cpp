@@ -1367,6 +1367,10 @@ int cmd_build(const std::vector<std::string>& args) {
          "a sample mapped onto another's mesh gets the host's simulate\non the mapped mesh "
          "instead of its own fields carried over",
          &simulate_mapped);
+  p.option("canonical-refinement", 0, "N",
+           "rounds of canonical refinement where a mapped term departs\nfrom its own boundary "
+           "(0: none)",
+           &o.canonical_refinement, 0, 20);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &quiet);
   p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
@@ -1455,6 +1459,9 @@ int cmd_build(const std::vector<std::string>& args) {
                    st.mapped_simulated, st.mapped_simulate_failures);
     if (st.mapped_simulate_failures > 0)
       std::fprintf(out, "    first failure    %s\n", st.first_mapped_simulate_failure);
+    if (st.refined_elements > 0)
+      std::fprintf(out, "  refined canonical  %d elements, %d vertices added\n",
+                   st.refined_elements, st.refined_vertices);
     std::fprintf(
         out,
         "  stages             store %s, sampling %s, refinement %s, elements %s, "

@@ -83,10 +83,11 @@ int usage() {
                "usage: cadinterp-occt-results [--full] [--models a,b,...] [--points N]\n"
                "                              [--max-samples N] [--max-depth N] [--threads N]\n"
                "                              [--seed S] [--dir DIR] [--host-options K=V,...]\n"
-               "                              [--simulate-mapped]\n"
+               "                              [--simulate-mapped] [--canonical-refinement N]\n"
                "  --host-options    appended to every model's options (e.g. order=2)\n"
                "  --simulate-mapped the builder simulates each mapped term on its mapped mesh\n"
-               "                    instead of carrying the sample's fields over\n");
+               "                    instead of carrying the sample's fields over\n"
+               "  --canonical-refinement N  rounds of canonical refinement (default 3, 0: none)\n");
   return 2;
 }
 
@@ -101,6 +102,7 @@ int main(int argc, char** argv) {
   std::string dir = std::filesystem::temp_directory_path().string();
   std::string host_options;
   bool simulate_mapped = false;
+  int canonical_refinement = -1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -132,6 +134,9 @@ int main(int argc, char** argv) {
       host_options = next();
     } else if (a == "--simulate-mapped") {
       simulate_mapped = true;
+    } else if (a == "--canonical-refinement") {
+      canonical_refinement = std::atoi(next().c_str());
+      if (canonical_refinement < 0 || canonical_refinement > 20) return usage();
     } else {
       return usage();
     }
@@ -148,7 +153,8 @@ int main(int argc, char** argv) {
     std::string model, note;
     int K = 0, depth = 0, samples = 0, infeasible = 0, elements = 0, bad_elements = 0, stored = 0;
     int unmapped = 0;  // of bad_elements: samples feasible, a term not mapped
-    int simulated = 0, simulate_failures = 0;  // --simulate-mapped: mapped terms
+    int simulated = 0, simulate_failures = 0;        // --simulate-mapped: mapped terms
+    int refined_elements = 0, refined_vertices = 0;  // canonical refinement
     std::string first_simulate_failure;
     double mesh_tets = 0, per_sample = 0;
     cadinterp::occt::StageTimes stages;
@@ -181,6 +187,7 @@ int main(int argc, char** argv) {
     cadinterp_build_options_init(&o);
     o.threads = threads;
     o.simulate_mapped = simulate_mapped ? 1 : 0;
+    if (canonical_refinement >= 0) o.canonical_refinement = canonical_refinement;
     o.max_samples = max_samples > 0 ? max_samples : (full ? 256 : 40);
     o.max_depth = max_depth >= 0 ? max_depth : (full ? 8 : 4);
     row.K = host->parameter_count;
@@ -212,6 +219,8 @@ int main(int argc, char** argv) {
     row.simulated = b.stages.mapped_simulated;
     row.simulate_failures = b.stages.mapped_simulate_failures;
     row.first_simulate_failure = b.first_mapped_simulate_failure;
+    row.refined_elements = b.stages.refined_elements;
+    row.refined_vertices = b.stages.refined_vertices;
     row.stored = b.report.stored_meshes;
     row.per_sample =
         b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : 0;
@@ -280,6 +289,10 @@ int main(int argc, char** argv) {
         r.elements, r.bad_elements, r.unmapped, r.mesh_tets, p ? p->mesh : "-", r.stored,
         p ? p->storage : 0, r.per_sample);
   }
+  for (const Row& r : rows)
+    if (r.refined_elements > 0)
+      std::printf("         %-11s  canonical meshes refined: %d elements, %d vertices added\n",
+                  r.model.c_str(), r.refined_elements, r.refined_vertices);
   if (simulate_mapped)
     for (const Row& r : rows) {
       std::printf(

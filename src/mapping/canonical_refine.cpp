@@ -1,0 +1,276 @@
+#include "mapping/canonical_refine.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <set>
+#include <thread>
+#include <utility>
+
+#include "builder/surface_distance.h"
+
+namespace cadinterp::mapping {
+
+namespace {
+
+double squared_length(const std::vector<double>& V, std::uint32_t a, std::uint32_t b) {
+  double d = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double q = V[3 * std::size_t(a) + k] - V[3 * std::size_t(b) + k];
+    d += q * q;
+  }
+  return d;
+}
+
+}  // namespace
+
+builder::Sample bisect_edges(const builder::Sample& s,
+                             const std::vector<std::array<std::uint32_t, 2>>& edges) {
+  builder::Sample r = s;
+  // Per vertex, the tets and triangles holding it, kept up to date as elements split, so that
+  // each edge finds its elements without a scan of the mesh.
+  std::vector<std::vector<std::uint32_t>> tets_of(r.vertex_count()), tris_of(r.vertex_count());
+  for (std::size_t t = 0; t < r.tet_count(); ++t)
+    for (int k = 0; k < 4; ++k) tets_of[r.tets[4 * t + k]].push_back(static_cast<std::uint32_t>(t));
+  for (std::size_t t = 0; t < r.triangle_count(); ++t)
+    for (int k = 0; k < 3; ++k)
+      tris_of[r.triangles[3 * t + k]].push_back(static_cast<std::uint32_t>(t));
+  auto holds = [](const std::uint32_t* e, int n, std::uint32_t v) {
+    return std::find(e, e + n, v) != e + n;
+  };
+  auto drop = [](std::vector<std::uint32_t>& list, std::uint32_t x) {
+    list.erase(std::find(list.begin(), list.end(), x));
+  };
+  // Splits element `t` (n vertex indices at elems[n*t]) across edge (a, b) at m: the element
+  // keeps a and takes m for b; its copy takes m for a. Replacing a corner by a point strictly
+  // between it and another corner keeps the orientation's sign.
+  auto split = [&](std::vector<std::uint32_t>& elems, std::vector<std::vector<std::uint32_t>>& of,
+                   int n, std::uint32_t t, std::uint32_t a, std::uint32_t b, std::uint32_t m) {
+    const std::size_t copy = elems.size() / static_cast<std::size_t>(n);
+    for (int k = 0; k < n; ++k) {
+      const std::uint32_t v = elems[std::size_t(n) * t + k];
+      elems.push_back(v == a ? m : v);
+      if (v != a && v != b) of[v].push_back(static_cast<std::uint32_t>(copy));
+    }
+    std::replace(elems.begin() + std::ptrdiff_t(n) * t, elems.begin() + std::ptrdiff_t(n) * (t + 1),
+                 b, m);
+    drop(of[b], t);
+    of[b].push_back(static_cast<std::uint32_t>(copy));
+    of[m].push_back(t);
+    of[m].push_back(static_cast<std::uint32_t>(copy));
+  };
+  for (const auto& [a, b] : edges) {
+    std::vector<std::uint32_t> tets, tris;
+    for (std::uint32_t t : tets_of[a])
+      if (holds(&r.tets[4 * std::size_t(t)], 4, b)) tets.push_back(t);
+    for (std::uint32_t t : tris_of[a])
+      if (holds(&r.triangles[3 * std::size_t(t)], 3, b)) tris.push_back(t);
+    if (tris.empty()) continue;  // not a boundary edge (any more)
+    const auto m = static_cast<std::uint32_t>(r.vertex_count());
+    for (int k = 0; k < 3; ++k)
+      r.vertices.push_back(
+          0.5 * (r.vertices[3 * std::size_t(a) + k] + r.vertices[3 * std::size_t(b) + k]));
+    tets_of.emplace_back();
+    tris_of.emplace_back();
+    for (builder::Field& f : r.fields) {
+      const auto c = static_cast<std::size_t>(f.components);
+      if (f.location == 0) {
+        for (std::size_t k = 0; k < c; ++k)
+          f.values.push_back(0.5 * (f.values[c * a + k] + f.values[c * b + k]));
+      } else {
+        for (std::uint32_t t : tets)
+          for (std::size_t k = 0; k < c; ++k) f.values.push_back(f.values[c * t + k]);
+      }
+    }
+    for (std::uint32_t t : tets) split(r.tets, tets_of, 4, t, a, b, m);
+    for (std::uint32_t t : tris) {
+      split(r.triangles, tris_of, 3, t, a, b, m);
+      r.triangle_tags.push_back(r.triangle_tags[t]);
+    }
+  }
+  return r;
+}
+
+namespace {
+
+// mapped_departure with the source's surface index given (built once per source).
+double departure(const builder::Sample& source, const builder::SurfaceIndex& on_source,
+                 const builder::Sample& canonical, const std::vector<double>& mapped_vertices,
+                 double tolerance, std::vector<std::size_t>* marked) {
+  const double diag = source.bbox_diagonal();
+  if (!(diag > 0)) return 0;
+  const builder::SurfaceIndex on_mapped(mapped_vertices, canonical.triangles);
+  double worst = 0;
+  std::set<std::size_t> mark;
+  // Source vertices far from the mapped surface: a canonical triangle spans a bend of the
+  // source (the vertex-sampled Hausdorff distance's source side, mapping_quality.h).
+  std::vector<char> seen(source.vertex_count(), 0);
+  for (std::uint32_t v : source.triangles) {
+    if (seen[v]) continue;
+    seen[v] = 1;
+    std::size_t t = 0;
+    const double d = on_mapped.distance(&source.vertices[3 * std::size_t(v)], &t) / diag;
+    worst = std::max(worst, d);
+    if (d > tolerance) mark.insert(t);
+  }
+  // Mapped triangles whose centroid is off the source: their corners lie on it (step 3), so
+  // this is where the chord cuts through a bend the source's vertices do not show.
+  for (std::size_t t = 0; t < canonical.triangle_count(); ++t) {
+    double c[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k)
+      for (int i = 0; i < 3; ++i)
+        c[i] += mapped_vertices[3 * std::size_t(canonical.triangles[3 * t + k]) + i] / 3.0;
+    const double d = on_source.distance(c) / diag;
+    worst = std::max(worst, d);
+    if (d > tolerance) mark.insert(t);
+  }
+  if (marked) marked->insert(marked->end(), mark.begin(), mark.end());
+  return worst;
+}
+
+}  // namespace
+
+double mapped_departure(const builder::Sample& source, const builder::Sample& canonical,
+                        const std::vector<double>& mapped_vertices, double tolerance,
+                        std::vector<std::size_t>* marked) {
+  const builder::SurfaceIndex on_source(source.vertices, source.triangles);
+  return departure(source, on_source, canonical, mapped_vertices, tolerance, marked);
+}
+
+bool refine_canonical(const std::vector<const builder::Sample*>& sources,
+                      const builder::Sample& canonical, const builder::Mapper& mapper,
+                      builder::Sample& refined, std::vector<builder::MappedSample>& mapped,
+                      std::string& why, RefineStats* stats, const RefineOptions& options) {
+  RefineStats st;
+  // The edge lists bisected so far, round by round (`c` below is the canonical bisected so).
+  std::vector<std::vector<std::array<std::uint32_t, 2>>> history;
+  // Every source onto `c`; false (with why) at the first that fails. A source of the
+  // canonical's own combinatorics (the canonical sample itself, or one the builder blends with
+  // it vertex by vertex) is bisected as the canonical was instead: its vertex i is the
+  // canonical's, so that is its exact map, new vertices on its own surface, and no mapping.
+  // Sources are mapped on up to options.threads threads (the mapper is const and thread-safe);
+  // the first failure in source order is reported, whichever thread met it.
+  auto map_all = [&](const builder::Sample& c, std::vector<builder::MappedSample>& out,
+                     std::string& w) {
+    out.assign(sources.size(), builder::MappedSample());
+    std::vector<std::string> whys(sources.size());
+    std::vector<char> ok(sources.size(), 1);
+    std::atomic<std::size_t> next{0};
+    auto work = [&] {
+      for (std::size_t i; (i = next++) < sources.size();) {
+        if (builder::same_combinatorics(*sources[i], canonical)) {
+          builder::Sample b = *sources[i];
+          for (const auto& edges : history) b = bisect_edges(b, edges);
+          out[i].vertices = std::move(b.vertices);
+          for (builder::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
+        } else {
+          ok[i] = mapper.map(*sources[i], c, out[i], whys[i]) ? 1 : 0;
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    const std::size_t workers = std::min<std::size_t>(
+        sources.size(), static_cast<std::size_t>(std::max(1, options.threads)));
+    const std::size_t extra = workers > 0 ? workers - 1 : 0;
+    for (std::size_t t = 0; t < extra; ++t) pool.emplace_back(work);
+    work();
+    for (std::thread& t : pool) t.join();
+    for (std::size_t i = 0; i < sources.size(); ++i)
+      if (!ok[i]) {
+        w = whys[i];
+        return false;
+      }
+    return true;
+  };
+  std::vector<builder::SurfaceIndex> on_source;
+  on_source.reserve(sources.size());
+  // Per source and face tag, that face's triangles alone: an edge's offset is measured from
+  // its own face, since a chord along a sharp CAD edge lies on the plane next to it (a bend's
+  // arc beside a flat side face) and measured from the whole surface would show no sag.
+  std::vector<std::map<std::int32_t, builder::SurfaceIndex>> on_face(sources.size());
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const builder::Sample& s = *sources[i];
+    on_source.emplace_back(s.vertices, s.triangles);
+    std::map<std::int32_t, std::vector<std::uint32_t>> faces;
+    for (std::size_t t = 0; t < s.triangle_count(); ++t)
+      faces[s.triangle_tags[t]].insert(faces[s.triangle_tags[t]].end(), &s.triangles[3 * t],
+                                       &s.triangles[3 * t + 3]);
+    for (const auto& [tag, F] : faces)
+      on_face[i].emplace(tag, builder::SurfaceIndex(s.vertices, F));
+  }
+  // The departure of every source on `c`, and the edges to bisect, over all sources: per
+  // marked triangle, every edge whose mapped midpoint lies off the source's face by at least
+  // half the most any of its edges does. On a cylinder a triangle's edge across the bend and
+  // its diagonal have the same sag (kappa L^2 / 8 along the curvature kappa in the edge's
+  // direction), and splitting only one leaves the other's; the axial edge has none.
+  auto measure = [&](const builder::Sample& c, const std::vector<builder::MappedSample>& m,
+                     std::set<std::array<std::uint32_t, 2>>& edges) {
+    double worst = 0;
+    for (std::size_t i = 0; i < sources.size(); ++i) {
+      std::vector<std::size_t> marked;
+      worst = std::max(worst, departure(*sources[i], on_source[i], c, m[i].vertices,
+                                        options.tolerance, &marked));
+      const std::vector<double>& V = m[i].vertices;
+      for (std::size_t t : marked) {
+        const std::uint32_t* f = &c.triangles[3 * t];
+        // Its face on the source (a tag the source lacks, after a topology change: the whole).
+        const auto face = on_face[i].find(c.triangle_tags[t]);
+        const builder::SurfaceIndex& under = face != on_face[i].end() ? face->second : on_source[i];
+        double off[3], most = 0;
+        for (int k = 0; k < 3; ++k) {
+          const std::uint32_t a = f[k], b = f[(k + 1) % 3];
+          double mid[3];
+          for (int j = 0; j < 3; ++j)
+            mid[j] = 0.5 * (V[3 * std::size_t(a) + j] + V[3 * std::size_t(b) + j]);
+          off[k] = under.distance(mid);
+          most = std::max(most, off[k]);
+        }
+        for (int k = 0; k < 3; ++k) {
+          const std::uint32_t a = f[k], b = f[(k + 1) % 3];
+          if (off[k] >= 0.5 * most && squared_length(V, a, b) > 0)
+            edges.insert({std::min(a, b), std::max(a, b)});
+        }
+      }
+    }
+    return worst;
+  };
+  refined = canonical;
+  if (!map_all(refined, mapped, why)) return false;
+  std::set<std::array<std::uint32_t, 2>> edges;
+  st.before = st.after = measure(refined, mapped, edges);
+  // Rounds go on from the last refined mesh even where one did not lower the departure (the
+  // bend's diagonals are split the round after its edges across it); the best is kept.
+  builder::Sample current = canonical;
+  const double limit = (1.0 + options.max_growth) * static_cast<double>(canonical.vertex_count());
+  for (int round = 0; round < options.rounds && !edges.empty(); ++round) {
+    if (static_cast<double>(current.vertex_count() + edges.size()) > limit) {
+      st.stopped = "the growth limit (" + std::to_string(edges.size()) + " more vertices)";
+      break;
+    }
+    // Sorted edges: the refined mesh is a function of the inputs alone.
+    history.emplace_back(edges.begin(), edges.end());
+    builder::Sample next = bisect_edges(current, history.back());
+    std::vector<builder::MappedSample> next_mapped;
+    std::string w;
+    if (!map_all(next, next_mapped, w)) {
+      st.stopped = "round " + std::to_string(round + 1) + " could not be mapped: " + w;
+      break;
+    }
+    edges.clear();
+    const double d = measure(next, next_mapped, edges);
+    current = std::move(next);
+    if (d < st.after) {
+      st.after = d;
+      st.rounds = round + 1;
+      st.added_vertices = current.vertex_count() - canonical.vertex_count();
+      refined = current;
+      mapped = next_mapped;
+    }
+  }
+  if (st.stopped.empty() && !edges.empty() && options.rounds > 0) st.stopped = "the round limit";
+  if (stats) *stats = st;
+  return true;
+}
+
+}  // namespace cadinterp::mapping

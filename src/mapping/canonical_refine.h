@@ -1,0 +1,83 @@
+// Canonical refinement (paper §6, after step 4): the mapping keeps the canonical mesh's
+// combinatorics, so where a source's boundary bends under a canonical triangle (a bolt hole's
+// round wall where the canonical has a flat flank, a fillet of 39 mm under one of 7 mm) the
+// mapped triangle is a chord of the source's surface, however exactly its corners lie on it.
+// Only a finer canonical there lowers that error. This bisects the canonical's boundary edges
+// where some source's mapped surface departs from that source's own boundary by more than a
+// tolerance, and maps every source again onto the refined mesh, for a few rounds.
+//
+// Bisection of an edge splits every tet and boundary triangle around it in two (conforming by
+// construction, orientation kept, no interior vertex added), so one refined canonical serves
+// every source mapped onto it, as an element's canonical mesh must (Eq. 3 blends vertex by
+// vertex).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "builder/mapping_hook.h"
+#include "builder/sample.h"
+
+namespace cadinterp::mapping {
+
+/// `s` with every edge of `edges` (vertex pairs, each an edge of a boundary triangle of `s`)
+/// split at its midpoint: the new vertex is appended, every tet and triangle holding the edge
+/// becomes two (same orientation, same face tag), a per-vertex field takes the mean of the
+/// edge's ends and a per-tet field is copied to both halves. Control points, paths and regions
+/// are kept: paths are polylines, and a midpoint of a path's mesh edge lies on it. Pairs that
+/// are not edges (e.g. already split in this call) are skipped.
+builder::Sample bisect_edges(const builder::Sample& s,
+                             const std::vector<std::array<std::uint32_t, 2>>& edges);
+
+struct RefineOptions {
+  /// A boundary triangle is refined where, for some source, the mapped surface lies farther
+  /// than this (relative to that source's bounding-box diagonal) from the source's boundary, at
+  /// a source vertex whose closest mapped triangle it is, or at its own mapped centroid. Below
+  /// the builder's default geometry tolerance (1e-3), so that the refined pairs meet it.
+  double tolerance = 7e-4;
+  /// Rounds of bisection (each maps every source again); 0 refines nothing.
+  int rounds = 3;
+  /// No round that would take the canonical's vertex count beyond (1 + max_growth) times its
+  /// original count (the asset stores every term on the refined mesh).
+  double max_growth = 0.5;
+  /// Sources mapped in parallel on this many threads (the result does not depend on it).
+  int threads = 1;
+};
+
+struct RefineStats {
+  int rounds = 0;                  ///< rounds of bisection in the canonical kept
+  std::size_t added_vertices = 0;  ///< canonical vertices they added
+  double before = 0;  ///< max over sources of the departure on the original canonical (/ diag)
+  double after = 0;   ///< the same on the refined canonical
+  /// Why refinement stopped above the tolerance ("" when it did not): a round whose mapping
+  /// failed, the growth limit, or the round limit.
+  std::string stopped;
+};
+
+/// The largest departure (/ source diagonal) of `mapped_vertices` (`source` mapped onto
+/// `canonical`, #V of the canonical by 3) from the source's boundary, measured as
+/// refine_canonical does; the boundary triangles of `canonical` where it exceeds `tolerance` are
+/// appended to `marked` when it is not null.
+double mapped_departure(const builder::Sample& source, const builder::Sample& canonical,
+                        const std::vector<double>& mapped_vertices, double tolerance,
+                        std::vector<std::size_t>* marked);
+
+/// Maps every source onto `canonical` with `mapper` and refines the canonical as above: each
+/// round bisects, on every triangle marked for some source, the edges whose mapped midpoints lie
+/// off that source's face by at least half the most of the triangle's edges, then maps every
+/// source again. Rounds go on from the last mesh until none is marked, a mapping fails or a
+/// limit is reached; the round with the smallest departure is kept. On
+/// success `refined` is the canonical kept (a copy of `canonical` when nothing was refined) and
+/// `mapped[i]` is sources[i] mapped onto it. False with `why` when a source cannot be mapped
+/// onto the original canonical; a refined canonical some source cannot be mapped onto is never
+/// kept. `stats` may be null.
+bool refine_canonical(const std::vector<const builder::Sample*>& sources,
+                      const builder::Sample& canonical, const builder::Mapper& mapper,
+                      builder::Sample& refined, std::vector<builder::MappedSample>& mapped,
+                      std::string& why, RefineStats* stats = nullptr,
+                      const RefineOptions& options = RefineOptions());
+
+}  // namespace cadinterp::mapping
