@@ -59,6 +59,29 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
   return r;
 }
 
+cadinterp_host SplitHost::host() const {
+  cadinterp_host h = *below;
+  h.identity = identity.c_str();
+  h.user = const_cast<SplitHost*>(this);
+  h.regenerate = [](void* u, const double* x, cadinterp_sample* out) {
+    const auto* s = static_cast<const SplitHost*>(u);
+    const cadinterp_host* in = x[s->parameter] <= s->split ? s->below : s->above;
+    return in->regenerate(in->user, x, out);
+  };
+  h.references = [](void* u, const double* x, cadinterp_sample* out) {
+    const auto* s = static_cast<const SplitHost*>(u);
+    const cadinterp_host* in = x[s->parameter] <= s->split ? s->below : s->above;
+    return in->references(in->user, x, out);
+  };
+  h.simulate = [](void* u, const double* x, const cadinterp_host_mesh* mesh,
+                  cadinterp_sample* out) {
+    const auto* s = static_cast<const SplitHost*>(u);
+    const cadinterp_host* in = x[s->parameter] <= s->split ? s->below : s->above;
+    return in->simulate(in->user, x, mesh, out);
+  };
+  return h;
+}
+
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& field_truth, bool count_lost,
                                 bool on_evaluated_mesh) {

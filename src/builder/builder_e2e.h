@@ -50,6 +50,21 @@ struct BuildOutcome {
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path);
 
+/// One model at two mesh resolutions, split along a parameter: the `below` host where
+/// x[parameter] <= split, the `above` host beyond. Their meshes differ in combinatorics while
+/// their B-rep IDs agree (the same model), so every element across the split maps terms of one
+/// resolution onto a canonical mesh of the other (the canonical refinement's tests).
+struct SplitHost {
+  const cadinterp_host* below = nullptr;
+  const cadinterp_host* above = nullptr;
+  int parameter = 0;
+  double split = 0;
+  std::string identity;
+  /// The combined host (below's name, parameters and thread safety; `identity`); it points at
+  /// this object, which must outlive it.
+  cadinterp_host host() const;
+};
+
 /// Evaluates the asset at `points` uniformly random x (seeded) and compares with host.evaluate:
 /// geometry by the symmetric Hausdorff distance of the boundary surfaces (meshes may differ in
 /// combinatorics), per-vertex fields at each evaluated vertex: against the host's value at the

@@ -321,29 +321,15 @@ TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
 #ifndef CADINTERP_HAVE_MAPPING
   GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
 #endif
-  struct TwoMeshes {
-    const cadinterp_host* coarse;
-    const cadinterp_host* fine;
-    const cadinterp_host* at(const double* x) const { return x[3] <= 120.0 ? coarse : fine; }
-  } two{host("bracket", "cells=3"), host("bracket", "cells=6")};
-  ASSERT_NE(two.coarse, nullptr);
-  ASSERT_NE(two.fine, nullptr);
-  cadinterp_host h = *two.fine;
-  h.identity = "bracket, cells=3 up to a 120 degree bend, cells=6 beyond";
-  h.user = &two;
-  h.regenerate = [](void* u, const double* x, cadinterp_sample* out) {
-    const cadinterp_host* in = static_cast<TwoMeshes*>(u)->at(x);
-    return in->regenerate(in->user, x, out);
-  };
-  h.references = [](void* u, const double* x, cadinterp_sample* out) {
-    const cadinterp_host* in = static_cast<TwoMeshes*>(u)->at(x);
-    return in->references(in->user, x, out);
-  };
-  h.simulate = [](void* u, const double* x, const cadinterp_host_mesh* mesh,
-                  cadinterp_sample* out) {
-    const cadinterp_host* in = static_cast<TwoMeshes*>(u)->at(x);
-    return in->simulate(in->user, x, mesh, out);
-  };
+  builder::SplitHost two;
+  two.below = host("bracket", "cells=3");
+  two.above = host("bracket", "cells=6");
+  ASSERT_NE(two.below, nullptr);
+  ASSERT_NE(two.above, nullptr);
+  two.parameter = 3;  // the bend angle
+  two.split = 120.0;
+  two.identity = "bracket, cells=3 up to a 120 degree bend, cells=6 beyond";
+  const cadinterp_host h = two.host();
   cadinterp_build_options o;
   cadinterp_build_options_init(&o);
   EXPECT_EQ(o.canonical_refinement, 3);  // the default
