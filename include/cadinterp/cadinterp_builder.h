@@ -304,7 +304,8 @@ typedef struct cadinterp_build_stages {
                               cadinterp_build_report have an infeasible sample) */
   /** With simulate_mapped: mapped terms whose fields the host simulated on the mapped mesh, and
    * those where it failed (they keep the carried fields). A map evicted from the builder's
-   * cache and needed again counts again. */
+   * cache and needed again counts again, as do the terms of an element whose canonical mesh was
+   * refined (canonical_refinement: simulated again on the refined mesh). */
   int mapped_simulated;
   int mapped_simulate_failures;
   /** The host's message for the first of those failures ("" if none); valid until the next run

@@ -209,12 +209,14 @@ int pairs(const std::vector<std::string>& args) {
   p.option("planar", 0, "0|1",
            "lay flat patches whose surface map folds into their plane (1) or not (0)", &planar, 0,
            1);
+  // The builder's defaults (cadinterp_build_options::canonical_refinement, 0.7 x its geometry
+  // tolerance), so that a pair is measured as a build would store it.
   mapping::RefineOptions ro;
-  ro.rounds = 0;
   p.option("refine", 0, "N",
-           "rounds of canonical refinement (canonical_refine.h): boundary edges bisected where the "
-           "mapped surface departs from the source's by more than --refine-tolerance, the pair "
-           "mapped again (0: none, the canonical as the host meshed it)",
+           "rounds of canonical refinement (canonical_refine.h), as the builder does by default: "
+           "boundary edges bisected where the mapped surface departs from the source's by more "
+           "than --refine-tolerance, the pair mapped again (0: none, the canonical as the host "
+           "meshed it)",
            &ro.rounds, 0, 20);
   p.option("refine-tolerance", 0, "F", "departure (/ bbox diagonal) above which --refine bisects",
            &ro.tolerance, 1e-6, 1.0);
