@@ -765,10 +765,23 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
         departs = mapping::mapped_departure(problem.sample(row), canon, v, tolerance, nullptr) >
                   tolerance;
       }
+      // The terms as mapped already (the views): refinement starts from them.
+      std::vector<const Sample*> sources;
       if (departs) {
-        std::vector<const Sample*> sources;
-        for (int t = 0; t < n; ++t)
-          sources.push_back(&problem.sample(run.sample_row[static_cast<std::size_t>(terms[t])]));
+        for (int t = 0; departs && t < n; ++t) {
+          const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
+          sources.push_back(&problem.sample(row));
+          if (!problem.view(row, crow, m)) {
+            departs = false;  // cannot happen: every term mapped above
+            break;
+          }
+          MappedSample& r = remapped.emplace_back();
+          r.vertices.assign(m.vertices, m.vertices + canon.vertices.size());
+          for (std::size_t k = 0; k < canon.fields.size(); ++k)
+            r.fields.emplace_back(m.fields[k], m.fields[k] + canon.fields[k].values.size());
+        }
+      }
+      if (departs) {
         mapping::RefineOptions ro;
         ro.tolerance = tolerance;
         ro.rounds = opt.canonical_refinement;

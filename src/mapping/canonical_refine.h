@@ -73,7 +73,9 @@ double mapped_departure(const builder::Sample& source, const builder::Sample& ca
 /// success `refined` is the canonical kept (a copy of `canonical` when nothing was refined) and
 /// `mapped[i]` is sources[i] mapped onto it. False with `why` when a source cannot be mapped
 /// onto the original canonical; a refined canonical some source cannot be mapped onto is never
-/// kept. `stats` may be null.
+/// kept. `stats` may be null. When `mapped` holds one entry per source on entry, those are taken
+/// as the sources already mapped onto `canonical` (the builder's, which has them) instead of
+/// mapping them again.
 bool refine_canonical(const std::vector<const builder::Sample*>& sources,
                       const builder::Sample& canonical, const builder::Mapper& mapper,
                       builder::Sample& refined, std::vector<builder::MappedSample>& mapped,
