@@ -61,6 +61,7 @@ builder::Sample bisect_edges(const builder::Sample& s,
     of[m].push_back(static_cast<std::uint32_t>(copy));
   };
   for (const auto& [a, b] : edges) {
+    if (a == b || a >= tets_of.size() || b >= tets_of.size()) continue;  // no edge
     std::vector<std::uint32_t> tets, tris;
     for (std::uint32_t t : tets_of[a])
       if (holds(&r.tets[4 * std::size_t(t)], 4, b)) tets.push_back(t);

@@ -28,7 +28,8 @@ namespace cadinterp::mapping {
 /// becomes two (same orientation, same face tag), a per-vertex field takes the mean of the
 /// edge's ends and a per-tet field is copied to both halves. Control points, paths and regions
 /// are kept: paths are polylines, and a midpoint of a path's mesh edge lies on it. Pairs that
-/// are not edges (e.g. already split in this call) are skipped.
+/// are not boundary edges (already split in this call, interior, indices out of range) are
+/// skipped.
 builder::Sample bisect_edges(const builder::Sample& s,
                              const std::vector<std::array<std::uint32_t, 2>>& edges);
 

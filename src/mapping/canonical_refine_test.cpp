@@ -128,7 +128,9 @@ TEST(CanonicalRefine, BisectionSplitsEveryElementAroundTheEdgeAndKeepsTheSolid) 
   EXPECT_EQ(r.regions.size(), s.regions.size());
 
   // Only pairs that are no boundary edge: nothing changes.
-  const builder::Sample same = mapping::bisect_edges(s, {{f0[0], far}});
+  const auto V = static_cast<std::uint32_t>(s.vertex_count());
+  const builder::Sample same =
+      mapping::bisect_edges(s, {{f0[0], far}, {f0[0], f0[0]}, {f0[0], V}, {V + 7, 0}});
   EXPECT_EQ(same.vertices, s.vertices);
   EXPECT_EQ(same.tets, s.tets);
 }
