@@ -757,29 +757,21 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
         std::none_of(bridged.begin(), bridged.end(), [](const auto& b) { return b != nullptr; })) {
       const Sample& canon = problem.sample(crow);
       const double tolerance = 0.7 * opt.geometry_tolerance;
-      bool departs = false;
-      for (int t = 0; !departs && t < n; ++t) {
-        const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
-        if (problem.same_class(row, crow) || !problem.view(row, crow, m)) continue;
-        const std::vector<double> v(m.vertices, m.vertices + canon.vertices.size());
-        departs = mapping::mapped_departure(problem.sample(row), canon, v, tolerance, nullptr) >
-                  tolerance;
-      }
-      // The terms as mapped already (the views): refinement starts from them.
+      // The terms as mapped already (every view exists: the loop above mapped them), from which
+      // refinement starts.
       std::vector<const Sample*> sources;
-      if (departs) {
-        for (int t = 0; departs && t < n; ++t) {
-          const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
-          sources.push_back(&problem.sample(row));
-          if (!problem.view(row, crow, m)) {
-            departs = false;  // cannot happen: every term mapped above
-            break;
-          }
-          MappedSample& r = remapped.emplace_back();
-          r.vertices.assign(m.vertices, m.vertices + canon.vertices.size());
-          for (std::size_t k = 0; k < canon.fields.size(); ++k)
-            r.fields.emplace_back(m.fields[k], m.fields[k] + canon.fields[k].values.size());
-        }
+      bool departs = false;
+      for (int t = 0; t < n; ++t) {
+        const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
+        sources.push_back(&problem.sample(row));
+        problem.view(row, crow, m);
+        MappedSample& r = remapped.emplace_back();
+        r.vertices.assign(m.vertices, m.vertices + canon.vertices.size());
+        for (std::size_t k = 0; k < canon.fields.size(); ++k)
+          r.fields.emplace_back(m.fields[k], m.fields[k] + canon.fields[k].values.size());
+        departs = departs || (!problem.same_class(row, crow) &&
+                              mapping::mapped_departure(problem.sample(row), canon, r.vertices,
+                                                        tolerance, nullptr) > tolerance);
       }
       if (departs) {
         mapping::RefineOptions ro;

@@ -266,7 +266,7 @@ bool refine_canonical(const std::vector<const builder::Sample*>& sources,
       st.rounds = round + 1;
       st.added_vertices = current.vertex_count() - canonical.vertex_count();
       refined = current;
-      mapped = next_mapped;
+      mapped = std::move(next_mapped);
     }
   }
   if (st.stopped.empty() && !edges.empty() && options.rounds > 0) st.stopped = "the round limit";

@@ -29,39 +29,19 @@ builder::Sample bracket(const char* options, const std::vector<double>& x) {
   return s;
 }
 
-double tet_volume(const std::vector<double>& V, const std::uint32_t* t) {
-  double e[3][3];
-  for (int k = 0; k < 3; ++k)
-    for (int c = 0; c < 3; ++c) e[k][c] = V[3 * t[k + 1] + c] - V[3 * t[0] + c];
-  return (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
-          e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-          e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])) /
-         6.0;
-}
-
 // Sum over tets of a per-tet field times the tet's volume, and the solid's volume.
 void integrals(const builder::Sample& s, int field, double& volume, double& integral) {
   volume = integral = 0;
   for (std::size_t t = 0; t < s.tet_count(); ++t) {
-    const double v = tet_volume(s.vertices, &s.tets[4 * t]);
+    const double v = mapping::six_volume(s.vertices, &s.tets[4 * t]) / 6.0;
     volume += v;
     integral += v * s.fields[static_cast<std::size_t>(field)].values[t];
   }
 }
 
 double boundary_area(const builder::Sample& s) {
-  double area = 0;
-  for (std::size_t t = 0; t < s.triangle_count(); ++t) {
-    const double* a = &s.vertices[3 * s.triangles[3 * t]];
-    const double* b = &s.vertices[3 * s.triangles[3 * t + 1]];
-    const double* c = &s.vertices[3 * s.triangles[3 * t + 2]];
-    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                         u[0] * v[1] - u[1] * v[0]};
-    area += 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  }
-  return area;
+  const std::set<std::int32_t> tags(s.triangle_tags.begin(), s.triangle_tags.end());
+  return mapping::tagged_area(s.vertices, s, std::vector<std::int32_t>(tags.begin(), tags.end()));
 }
 
 TEST(CanonicalRefine, BisectionSplitsEveryElementAroundTheEdgeAndKeepsTheSolid) {
