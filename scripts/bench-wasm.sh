@@ -17,7 +17,7 @@ mkdir -p "$work"
 
 if [ ! -f "$native/build.ninja" ]; then
   cmake -S "$root" -B "$native" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCADINTERP_BUILD_BENCHMARKS=OFF \
-    -DCADINTERP_WITH_MAPPING=OFF -DCADINTERP_WITH_PHYSICS=OFF -DCADINTERP_WITH_OCCT=OFF \
+    -DCADINTERP_WITH_PHYSICS=OFF -DCADINTERP_WITH_OCCT=OFF \
     -DCADINTERP_WITH_EXPLORER=OFF >/dev/null
 fi
 cmake --build "$native" --target cadinterp cadinterp_format -j2 >/dev/null

@@ -15,16 +15,14 @@
 #include <thread>
 
 #include "builder/sample_store.h"
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp_version.h"
 #include "core/adaptive.h"
-#ifdef CADINTERP_HAVE_MAPPING
 #include "mapping/canonical_refine.h"
 #include "mapping/field_transfer.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mesh_mapper.h"
 #include "mapping/neighbour_transfer.h"
-#endif
 
 namespace cadinterp::builder {
 
@@ -326,7 +324,6 @@ class MeshProblem final : public core::AdaptiveProblem {
   /// by the host's simulate at row src's x on that mesh. False with `why` (m untouched) where
   /// the regions cannot be placed, the host fails, or it returns other fields.
   bool simulate_on_mapped(int src, const Sample& canon, MappedSample& m, std::string& why) const {
-#ifdef CADINTERP_HAVE_MAPPING
     const Sample& s = sample(src);
     Sample mesh;
     if (!mapping::mesh_for_simulation(s, canon, m.vertices, mesh, why)) return false;
@@ -348,13 +345,6 @@ class MeshProblem final : public core::AdaptiveProblem {
     }
     m.fields = std::move(fields);
     return true;
-#else
-    (void)src;
-    (void)canon;
-    (void)m;
-    why = "simulate_mapped needs the mapping component";
-    return false;
-#endif
   }
 
   /// Counts one simulate_mapped outcome (the caller holds maps_mu_ or runs alone).
@@ -479,13 +469,8 @@ std::string store_fingerprint(const Host& host) {
 }
 
 const Mapper& default_mapper() {
-#ifdef CADINTERP_HAVE_MAPPING
   static const mapping::MeshMapper mesh;
   return mesh;
-#else
-  static const IdentityMapper identity;
-  return identity;
-#endif
 }
 
 std::string options_json(const BuildOptions& o, const char* mapper_name) {
@@ -577,7 +562,6 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
 
   // Per element: canonical mesh = the host at its centre (§4.2); each term's sample mapped into
   // it. An element whose centre failed or whose terms cannot be mapped is infeasible.
-#ifdef CADINTERP_HAVE_MAPPING
   const bool cubic = opt.degree == core::Degree::Cubic;
   // The cubic neighbour transfer (§5.3, Fig. 15). A cubic element's terms include samples of
   // adjacent elements (Bbar(e)). Such a sample k can be mapped into the element's canonical mesh
@@ -683,7 +667,6 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
     st.bridged_min_sj = std::min(
         st.bridged_min_sj, mapping::tet_quality(viab->vertices, canon.tets).min_scaled_jacobian);
   };
-#endif
   const Sample* field_source = nullptr;
   for (std::size_t e = 0; e < leaves.size(); ++e) {
     format::ElementData ed;
@@ -704,7 +687,6 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
       const int row = run.sample_row[static_cast<std::size_t>(terms[t])];
       bool direct = false;
       bool outside = false;
-#ifdef CADINTERP_HAVE_MAPPING
       outside = cubic && !core::box_contains(tree.node(leaf).box, basis.sample(terms[t]), K);
       if (outside) ++out.neighbour.neighbour_terms;
       if (outside &&
@@ -716,16 +698,13 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
         compare_routes(row, crow, bridged[static_cast<std::size_t>(t)].get());
       if (opt.neighbour_transfer != NeighbourTransfer::Always)
         bridged[static_cast<std::size_t>(t)].reset();
-#endif
       if (!bridged[static_cast<std::size_t>(t)]) direct = problem.view(row, crow, m);
       if (!direct && !bridged[static_cast<std::size_t>(t)] && outside) {
         ++out.neighbour.direct_failed;
-#ifdef CADINTERP_HAVE_MAPPING
         if (opt.neighbour_transfer == NeighbourTransfer::Fallback) {
           auto b = std::make_unique<MappedSample>();
           if (bridge(leaf, crow, terms[t], *b)) bridged[static_cast<std::size_t>(t)] = std::move(b);
         }
-#endif
       }
       if (bridged[static_cast<std::size_t>(t)]) {
         ++out.neighbour.bridged;
@@ -752,7 +731,6 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
     Sample refined;
     std::vector<MappedSample> remapped;
     bool use_refined = false;
-#ifdef CADINTERP_HAVE_MAPPING
     if (ok && opt.canonical_refinement > 0 &&
         std::none_of(bridged.begin(), bridged.end(), [](const auto& b) { return b != nullptr; })) {
       const Sample& canon = problem.sample(crow);
@@ -796,7 +774,6 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
         }
       }
     }
-#endif
     if (ok) {
       const Sample& canon = use_refined ? refined : problem.sample(crow);
       if (!field_source) field_source = &problem.sample(crow);

@@ -18,8 +18,7 @@
 #include <vector>
 
 #include "builder/executor.h"
-#include "builder/host_call.h"
-#include "builder/mapping_hook.h"
+#include "builder/mesh_types.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "core/basis.h"
 #include "core/compiled_basis.h"

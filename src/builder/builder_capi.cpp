@@ -9,13 +9,13 @@
 #include <string>
 
 #include "builder/build.h"
-#include "builder/host_call.h"
+#include "mesh/host_call.h"
 #include "builder/sample_store.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "format/asset_format.h"
 #include "format/asset_writer.h"
 
-using cadinterp::builder::Sample;
+using cadinterp::mesh::Sample;
 
 namespace {
 
@@ -61,7 +61,7 @@ bool valid_id(const int64_t* id, size_t n) { return id && n >= 1 && n <= 64; }
 }  // namespace
 
 struct cadinterp_builder {
-  std::unique_ptr<cadinterp::builder::Host> host;
+  std::unique_ptr<cadinterp::mesh::Host> host;
   cadinterp::builder::BuildOptions options;
   cadinterp_progress_fn progress = nullptr;
   void* progress_user = nullptr;
@@ -95,7 +95,7 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_point(cadinterp_sample* s, c
                                                           size_t n, const double* position) {
   return guard(nullptr, [&] {
     if (!s || !valid_id(id, n) || !position) return CADINTERP_E_INVALID_ARGUMENT;
-    cadinterp::builder::ControlPoint p;
+    cadinterp::mesh::ControlPoint p;
     p.id.assign(id, id + n);
     for (const auto& q : s->sample.points)
       if (q.id == p.id) return CADINTERP_E_INVALID_ARGUMENT;
@@ -111,7 +111,7 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_path(cadinterp_sample* s, co
   return guard(nullptr, [&] {
     if (!s || !valid_id(a, na) || !valid_id(b, nb) || !polyline || np < 2 || np >= kMaxCount)
       return CADINTERP_E_INVALID_ARGUMENT;
-    cadinterp::builder::Path p;
+    cadinterp::mesh::Path p;
     p.a.assign(a, a + na);
     p.b.assign(b, b + nb);
     p.polyline.assign(polyline, polyline + 3 * np);
@@ -144,7 +144,7 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* s, c
       return CADINTERP_E_INVALID_ARGUMENT;
     for (const auto& f : s->sample.fields)
       if (f.name == name) return CADINTERP_E_INVALID_ARGUMENT;
-    cadinterp::builder::Field f;
+    cadinterp::mesh::Field f;
     f.name = name;
     f.location = static_cast<std::uint8_t>(loc);
     f.components = components;
@@ -205,7 +205,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
     if (o.degree != 1 && o.degree != 3)
       throw std::invalid_argument("options: degree must be 1 or 3");
     auto b = std::make_unique<cadinterp_builder>();
-    b->host = std::make_unique<cadinterp::builder::Host>(*host);
+    b->host = std::make_unique<cadinterp::mesh::Host>(*host);
     auto& bo = b->options;
     bo.degree = o.degree == 3 ? cadinterp::core::Degree::Cubic : cadinterp::core::Degree::Linear;
     bo.geometry_tolerance = o.geometry_tolerance;

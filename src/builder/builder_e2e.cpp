@@ -6,11 +6,9 @@
 #include <random>
 #include <stdexcept>
 
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp.h"
-#ifdef CADINTERP_HAVE_MAPPING
 #include "mapping/field_transfer.h"
-#endif
 
 namespace cadinterp::builder {
 
@@ -164,7 +162,6 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
     geo.push_back(symmetric_hausdorff(V, F, truth.vertices, truth.triangles) /
                   truth.bbox_diagonal());
-#ifdef CADINTERP_HAVE_MAPPING
     if (on_evaluated_mesh) {
       evaluated.tets.assign(m.tets, m.tets + 4 * std::size_t(m.tet_count));
       evaluated.triangles = F;
@@ -198,7 +195,6 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
         }
       }
     }
-#endif
     if (field_truth) {
       double e = 0;
       for (std::size_t k = 0; k < fields.size(); ++k) {
@@ -220,7 +216,6 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     const bool same = truth.vertex_count() == m.vertex_count && truth.tet_count() == m.tet_count &&
                       std::equal(truth.tets.begin(), truth.tets.end(), m.tets);
     if (!same) {
-#ifdef CADINTERP_HAVE_MAPPING
       // A mapped element (§6): the evaluated mesh is not the host's, so the truth at each
       // evaluated vertex is the host's field interpolated barycentrically in the host's tet that
       // contains the vertex (the nearest tet for boundary vertices a geometry error outside).
@@ -234,7 +229,7 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
         for (std::size_t k = 0; k < fields.size(); ++k) {
           const auto fi = static_cast<std::size_t>(fields[k]);
           if (fi >= truth.fields.size()) continue;
-          const builder::Field& tf = truth.fields[fi];
+          const mesh::Field& tf = truth.fields[fi];
           const auto C = static_cast<std::size_t>(tf.components);
           const double range = value_range(tf.values);
           for (std::size_t c = 0; c < C; ++c) {
@@ -246,7 +241,6 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
         }
       }
       finish_point(e);
-#endif
       continue;
     }
     double e = 0;

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "builder/host_call.h"
+#include "builder/mesh_types.h"
 #include "cadinterp/cadinterp_builder.h"
 
 namespace cadinterp::builder {

@@ -17,11 +17,9 @@
 #include "analytic_host.h"
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp_builder.h"
-#ifdef CADINTERP_HAVE_MAPPING
 #include "mapping/interior_solve.h"
-#endif
 
 namespace {
 
@@ -95,7 +93,7 @@ TEST(EndToEnd, BracketMatchesItsHost) {
   const std::string path = temp_path("bracket.cadi");
   const builder::BuildOutcome r = build(h, o, path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
-  const builder::AccuracyReport a = builder::measure_accuracy(path, builder::Host(*h), 100, 1);
+  const builder::AccuracyReport a = builder::measure_accuracy(path, mesh::Host(*h), 100, 1);
   std::printf(
       "[ figures ] bracket: %d samples, %d elements, budget %s; geometry max %.2e p99 "
       "%.2e; field max %.2e p99 %.2e (targets 2e-3, 2e-2)\n",
@@ -113,9 +111,6 @@ TEST(EndToEnd, BracketMatchesItsHost) {
 // per side) it builds like any model; across resolutions the mesh mapper (src/mapping, paper §6)
 // carries each sample into the element's canonical mesh and the asset meets its targets.
 TEST(EndToEnd, PlateBuildsAcrossResolutionsWithTheMeshMapper) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#endif
   cadinterp_build_options o;
   cadinterp_build_options_init(&o);
   o.max_samples = 120;
@@ -125,7 +120,7 @@ TEST(EndToEnd, PlateBuildsAcrossResolutionsWithTheMeshMapper) {
   ASSERT_NE(coarse, nullptr);
   builder::BuildOutcome r = build(coarse, o, path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
-  builder::AccuracyReport a = builder::measure_accuracy(path, builder::Host(*coarse), 100, 2);
+  builder::AccuracyReport a = builder::measure_accuracy(path, mesh::Host(*coarse), 100, 2);
   std::printf(
       "[ figures ] plate (edge=100): %d samples; geometry max %.2e p99 %.2e; field max "
       "%.2e\n",
@@ -142,7 +137,7 @@ TEST(EndToEnd, PlateBuildsAcrossResolutionsWithTheMeshMapper) {
   // what the 120-sample budget stops short on, so it is checked where the asset must reproduce
   // the host up to the mapping alone: at the box's corners, which are samples.
   const analytic_model* model = analytic_host_model(fine);
-  a = builder::measure_accuracy(path, builder::Host(*fine), 60, 4,
+  a = builder::measure_accuracy(path, mesh::Host(*fine), 60, 4,
                                 [model](int f, const double* x, const double* p, double* v) {
                                   return f == 0 &&
                                          analytic_model_field_at(model, f, x, p, v) == CADINTERP_OK;
@@ -170,9 +165,6 @@ TEST(EndToEnd, PlateBuildsAcrossResolutionsWithTheMeshMapper) {
 // The accuracy measurement's comparison with the host's simulate on each evaluated mesh is, on
 // this host, the closed-form comparison, and gives its numbers.
 TEST(EndToEnd, SimulateMappedTermsHoldTheHostsFieldsOnTheirMappedMesh) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#endif
   const cadinterp_host* h = host("plate", "edge=8");
   ASSERT_NE(h, nullptr);
   const analytic_model* model = analytic_host_model(h);
@@ -206,7 +198,7 @@ TEST(EndToEnd, SimulateMappedTermsHoldTheHostsFieldsOnTheirMappedMesh) {
   EXPECT_GT(worst_carried, 100 * worst_simulated);
 
   // On this host the host's simulate on an evaluated mesh is the closed form at its vertices.
-  const builder::Host bh(*h);
+  const mesh::Host bh(*h);
   const builder::AccuracyReport own =
       builder::measure_accuracy(simulated, bh, 20, 6, nullptr, false, true);
   const builder::AccuracyReport closed = builder::measure_accuracy(
@@ -282,9 +274,6 @@ TEST(EndToEnd, SimulateMappedTermsHoldTheHostsFieldsOnTheirMappedMesh) {
 // edge and a 7th face appear) while its resolution follows its size: the mesh mapper's common
 // layout carries samples across both, and the asset follows its host.
 TEST(EndToEnd, FoldplateBuildsAcrossTopologyChanges) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#endif
   cadinterp_build_options o;
   cadinterp_build_options_init(&o);
   o.max_samples = 120;
@@ -297,7 +286,7 @@ TEST(EndToEnd, FoldplateBuildsAcrossTopologyChanges) {
   EXPECT_EQ(r.report.infeasible_elements, 0);
   const analytic_model* model = analytic_host_model(h);
   const builder::AccuracyReport a = builder::measure_accuracy(
-      path, builder::Host(*h), 60, 5, [model](int f, const double* x, const double* p, double* v) {
+      path, mesh::Host(*h), 60, 5, [model](int f, const double* x, const double* p, double* v) {
         return f == 0 && analytic_model_field_at(model, f, x, p, v) == CADINTERP_OK;
       });
   std::printf(
@@ -318,9 +307,6 @@ TEST(EndToEnd, FoldplateBuildsAcrossTopologyChanges) {
 // mapped term alone) the refined build follows the host's own mesh more closely than the same
 // build without refinement, which refines nothing and is the same otherwise.
 TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#endif
   builder::SplitHost two;
   two.below = host("bracket", "cells=3");
   two.above = host("bracket", "cells=6");
@@ -354,7 +340,7 @@ TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
 
   // Per 135 degree corner: symmetric Hausdorff / diagonal against the host's mesh there, and
   // the vertex count of the element's mesh.
-  const builder::Host truth(h);
+  const mesh::Host truth(h);
   auto at_corners = [&](const std::string& path, std::vector<double>& error,
                         std::vector<std::uint32_t>& vertices) {
     cadinterp_asset* asset = nullptr;
@@ -371,11 +357,11 @@ TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
       x[3] = 135.0;
       cadinterp_mesh m;
       ASSERT_EQ(cadinterp_eval(ws, x, nullptr, 0, &m), CADINTERP_OK);
-      const builder::Sample s = truth.evaluate(x);
+      const mesh::Sample s = truth.evaluate(x);
       ASSERT_TRUE(s.feasible);
       const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
       const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
-      error.push_back(builder::symmetric_hausdorff(V, F, s.vertices, s.triangles) /
+      error.push_back(mesh::symmetric_hausdorff(V, F, s.vertices, s.triangles) /
                       s.bbox_diagonal());
       vertices.push_back(m.vertex_count);
     }
@@ -411,12 +397,9 @@ TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
 // thread count, no stored tet is inverted, and the direct route gives other positions (the
 // bridge is really used).
 TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#else
   const cadinterp_host* h = host("foldplate", "edge=25");
   ASSERT_NE(h, nullptr);
-  const builder::Host fold(*h);
+  const mesh::Host fold(*h);
   builder::BuildOptions o;
   o.degree = core::Degree::Cubic;
   o.max_samples = 24;
@@ -456,7 +439,6 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
   for (std::size_t e = 0; e < one.content.elements.size(); ++e)
     differs = differs || direct.content.elements[e].positions != one.content.elements[e].positions;
   EXPECT_TRUE(differs);
-#endif
 }
 
 // Without the mesh mapper (the identity hook), elements across resolutions cannot be built, and
@@ -464,8 +446,8 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
 TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
   const cadinterp_host* fine = host("plate", "edge=8");
   ASSERT_NE(fine, nullptr);
-  const builder::Host h(*fine);
-  const builder::IdentityMapper identity;
+  const mesh::Host h(*fine);
+  const mesh::IdentityMapper identity;
   builder::BuildOptions o;
   o.max_samples = 40;
   o.threads = 2;
@@ -483,11 +465,7 @@ TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
 // The default mapper is the mesh mapper when the mapping component is built, and its name is
 // what the asset's provenance records.
 TEST(EndToEnd, DefaultMapperIsTheMeshMapperAndNamedInProvenance) {
-#ifdef CADINTERP_HAVE_MAPPING
   EXPECT_STREQ(builder::default_mapper().name(), "mesh-v9");
-#else
-  EXPECT_STREQ(builder::default_mapper().name(), "identity");
-#endif
   const std::string json =
       builder::options_json(builder::BuildOptions{}, builder::default_mapper().name());
   EXPECT_NE(json.find(std::string("\"mapper\":\"") + builder::default_mapper().name() + "\""),
@@ -506,7 +484,7 @@ TEST(EndToEnd, FailRegionBecomesInfeasibleAndTheRestIsAccurate) {
   const builder::BuildOutcome r = build(h, o, path);
   ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
   EXPECT_GT(r.report.infeasible_points, 0);
-  const builder::AccuracyReport a = builder::measure_accuracy(path, builder::Host(*h), 100, 3);
+  const builder::AccuracyReport a = builder::measure_accuracy(path, mesh::Host(*h), 100, 3);
   EXPECT_GT(a.infeasible, 0);
   EXPECT_LT(a.infeasible, a.points);
   std::filesystem::remove(path);

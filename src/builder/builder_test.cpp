@@ -23,7 +23,7 @@
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
 #include "builder/sample_store.h"
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "format/synthetic_asset.h"
@@ -31,7 +31,7 @@
 namespace {
 
 using namespace cadinterp;
-using builder::Sample;
+using mesh::Sample;
 
 std::string temp_path(const std::string& name) {
   return (std::filesystem::temp_directory_path() /
@@ -137,7 +137,7 @@ struct BoxHost {
   }
 
   // The true mesh at x, through the same callbacks the builder calls.
-  Sample truth(const double* x) const { return builder::Host(host).evaluate(x); }
+  Sample truth(const double* x) const { return mesh::Host(host).evaluate(x); }
 };
 
 using Built = builder::BuildOutcome;
@@ -163,27 +163,27 @@ TEST(Sample, SerializesLosslesslyAndValidates) {
   const double x[2] = {0.3, 0.7};
   Sample s = h.truth(x);
   ASSERT_TRUE(s.feasible) << s.message;
-  const auto bytes = builder::serialize(s);
-  const Sample t = builder::deserialize(bytes.data(), bytes.size());
-  EXPECT_EQ(builder::serialize(t), bytes);
+  const auto bytes = mesh::serialize(s);
+  const Sample t = mesh::deserialize(bytes.data(), bytes.size());
+  EXPECT_EQ(mesh::serialize(t), bytes);
   EXPECT_EQ(t.vertices, s.vertices);
   EXPECT_EQ(t.fields.size(), 2u);
   for (std::size_t n = 0; n < bytes.size(); n += 7)
-    EXPECT_THROW(builder::deserialize(bytes.data(), n), std::runtime_error) << n;
+    EXPECT_THROW(mesh::deserialize(bytes.data(), n), std::runtime_error) << n;
 
-  EXPECT_EQ(builder::validate(s), "");
+  EXPECT_EQ(mesh::validate(s), "");
   Sample bad = s;
   std::swap(bad.tets[0], bad.tets[1]);  // odd permutation: inverted
-  EXPECT_NE(builder::validate(bad).find("inverted"), std::string::npos);
+  EXPECT_NE(mesh::validate(bad).find("inverted"), std::string::npos);
   bad = s;
   bad.vertices[5] = std::nan("");
-  EXPECT_NE(builder::validate(bad).find("non-finite"), std::string::npos);
+  EXPECT_NE(mesh::validate(bad).find("non-finite"), std::string::npos);
   bad = s;
   bad.triangles[2] = static_cast<std::uint32_t>(s.vertex_count());
-  EXPECT_NE(builder::validate(bad).find("out of range"), std::string::npos);
+  EXPECT_NE(mesh::validate(bad).find("out of range"), std::string::npos);
   bad = s;
   bad.fields[1].values.pop_back();
-  EXPECT_NE(builder::validate(bad).find("stress"), std::string::npos);
+  EXPECT_NE(mesh::validate(bad).find("stress"), std::string::npos);
 }
 
 TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
@@ -192,15 +192,15 @@ TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
   std::vector<double> B = A;
   for (std::size_t i = 2; i < B.size(); i += 3) B[i] = 0.25;
   const std::vector<std::uint32_t> F = {0, 1, 2, 0, 2, 3};
-  EXPECT_NEAR(builder::symmetric_hausdorff(A, F, B, F), 0.25, 1e-15);
+  EXPECT_NEAR(mesh::symmetric_hausdorff(A, F, B, F), 0.25, 1e-15);
 
   // A box surface against random points: the grid query equals the brute force over all
   // triangles, inside, outside and far away.
   BoxHost h(2);
   const double x[2] = {0.5, 0.5};
   const Sample s = h.truth(x);
-  const builder::SurfaceIndex index(s.vertices, s.triangles);
-  const builder::SurfaceIndex one_by_one(s.vertices, {});
+  const mesh::SurfaceIndex index(s.vertices, s.triangles);
+  const mesh::SurfaceIndex one_by_one(s.vertices, {});
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-3.0, 3.0);
   for (int i = 0; i < 300; ++i) {
@@ -209,7 +209,7 @@ TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
     for (std::size_t t = 0; t < s.triangle_count(); ++t) {
       const std::vector<std::uint32_t> f(s.triangles.begin() + static_cast<long>(3 * t),
                                          s.triangles.begin() + static_cast<long>(3 * t + 3));
-      brute = std::min(brute, builder::SurfaceIndex(s.vertices, f).distance(p));
+      brute = std::min(brute, mesh::SurfaceIndex(s.vertices, f).distance(p));
     }
     EXPECT_NEAR(index.distance(p), brute, 1e-12 * (1 + brute)) << i;
   }
@@ -234,7 +234,7 @@ TEST(SampleStore, KeepsSamplesAndRefusesAnotherModel) {
   builder::SampleStore store(path, "model A");
   Sample got;
   ASSERT_TRUE(store.get(x, got));
-  EXPECT_EQ(builder::serialize(got), builder::serialize(s));
+  EXPECT_EQ(mesh::serialize(got), mesh::serialize(s));
   ASSERT_TRUE(store.get({0.5, 0.5}, got));
   EXPECT_FALSE(got.feasible);
   EXPECT_EQ(got.message, "no");
@@ -276,7 +276,7 @@ TEST(Build, AssetMatchesTheHostAtRandomPoints) {
     const Sample t = h.truth(x);
     const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
-    geo.push_back(builder::symmetric_hausdorff(V, F, t.vertices, t.triangles) / t.bbox_diagonal());
+    geo.push_back(mesh::symmetric_hausdorff(V, F, t.vertices, t.triangles) / t.bbox_diagonal());
     // Same combinatorics here, so fields compare value by value.
     double e = 0, range = 0;
     for (std::size_t k = 0; k < m.vertex_count; ++k) {
@@ -369,17 +369,17 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
 
   // The same through build(): each infeasible element carries the mapper's message, whichever
   // mapper it is.
-  struct Refusing final : builder::Mapper {
-    bool map(const Sample&, const Sample&, builder::MappedSample&,
+  struct Refusing final : mesh::Mapper {
+    bool map(const Sample&, const Sample&, mesh::MappedSample&,
              std::string& why) const override {
       why = "refused by the test mapper";
       return false;
     }
     const char* name() const override { return "refusing"; }
   } refusing;
-  const builder::Host host(h.host);
-  for (const builder::Mapper* mapper :
-       {&builder::default_mapper(), static_cast<const builder::Mapper*>(&refusing)}) {
+  const mesh::Host host(h.host);
+  for (const mesh::Mapper* mapper :
+       {&builder::default_mapper(), static_cast<const mesh::Mapper*>(&refusing)}) {
     builder::BuildOptions o;
     o.geometry_tolerance = 2e-3;
     o.field_tolerance = 2e-2;
@@ -390,11 +390,7 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
     EXPECT_GT(b.report.infeasible_elements, 0);
     ASSERT_FALSE(b.infeasible.empty());
     const std::string expected = mapper == &refusing ? "refused by the test mapper"
-#ifdef CADINTERP_HAVE_MAPPING
                                                      : "no control point with the same ID";
-#else
-                                                     : "identity mapper maps equal";
-#endif
     // ... and names the failing term's sample, so that the pair can be mapped again alone.
     for (const builder::InfeasiblePoint& p : b.infeasible) {
       EXPECT_NE(p.message.find(expected), std::string::npos) << p.message;
@@ -511,7 +507,7 @@ TEST(Build, ResumesAfterKillWithoutRepeatingFinishedSamples) {
     std::set<std::string> before;
     if (std::filesystem::exists(store)) {
       BoxHost h(2);
-      builder::SampleStore s(store, builder::store_fingerprint(builder::Host(h.host)));
+      builder::SampleStore s(store, builder::store_fingerprint(mesh::Host(h.host)));
       for (const auto& k : s.keys()) before.insert(key_text(k));
     }
     const pid_t pid = ::fork();
@@ -594,7 +590,7 @@ TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
     std::filesystem::remove(h.log_path);
     h.params[0].lower = 0.8;  // the box is now inside the corner x0, x1 > 0.75
     h.params[1].lower = 0.8;
-    const builder::Host host(h.host);
+    const mesh::Host host(h.host);
     builder::BuildReport rep;
     rep.counts.samples = -7;  // overwritten: the report starts afresh
     std::string what;
@@ -698,7 +694,7 @@ TEST(BuildReport, CountsReasonsOfAPartlyInfeasibleBuild) {
   h.log_path = temp_path("partly.log");
   std::filesystem::remove(h.log_path);
   builder::BuildReport rep;
-  const builder::BuildResult b = builder::build(builder::Host(h.host), small_build_options(), &rep);
+  const builder::BuildResult b = builder::build(mesh::Host(h.host), small_build_options(), &rep);
   const std::vector<std::vector<double>> calls = logged_calls(h.log_path);
   const int failing = static_cast<int>(std::count_if(calls.begin(), calls.end(), in_fail_corner));
   ASSERT_GT(failing, 0);
@@ -730,7 +726,7 @@ TEST(BuildReport, CountsReasonsOfAPartlyInfeasibleBuild) {
 // names the failure and keeps what was done before it.
 TEST(BuildReport, IsFilledWhenTheStoreFailsOrTheBuildIsCancelled) {
   BoxHost h(2);
-  const builder::Host host(h.host);
+  const mesh::Host host(h.host);
   builder::BuildOptions o = small_build_options();
   o.store_path = "/nonexistent-cadinterp-dir/store.sqlite";
   builder::BuildReport rep;

@@ -12,8 +12,8 @@
 
 #include "analytic_host.h"
 #include "builder/builder_e2e.h"
-#include "builder/host_call.h"
-#include "builder/sample.h"
+#include "mesh/host_call.h"
+#include "mesh/sample.h"
 
 namespace {
 
@@ -50,9 +50,6 @@ TEST(BuilderThreads, ParallelBuildsAreRaceFreeAndIdentical) {
 // The mesh mapper (paper §6) runs in the parallel refinement tests, each (sample, element) pair
 // mapped on whichever thread asks first: the asset must still be the same bytes.
 TEST(BuilderThreads, MappedBuildsAreRaceFreeAndIdentical) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#endif
   const char* err = nullptr;
   const cadinterp_host* host = cadinterp_host_entry("foldplate", "edge=20", &err);
   ASSERT_NE(host, nullptr) << err;
@@ -66,11 +63,11 @@ TEST(BuilderThreads, MappedBuildsAreRaceFreeAndIdentical) {
   // refinement tests do run the mapper.
   o.max_samples = 24;
   {
-    const cadinterp::builder::Host h(*host);
-    const cadinterp::builder::Sample lo = h.evaluate(h.lower().data());
-    const cadinterp::builder::Sample hi = h.evaluate(h.upper().data());
+    const cadinterp::mesh::Host h(*host);
+    const cadinterp::mesh::Sample lo = h.evaluate(h.lower().data());
+    const cadinterp::mesh::Sample hi = h.evaluate(h.upper().data());
     ASSERT_TRUE(lo.feasible && hi.feasible);
-    EXPECT_FALSE(cadinterp::builder::same_combinatorics(lo, hi));
+    EXPECT_FALSE(cadinterp::mesh::same_combinatorics(lo, hi));
   }
   std::vector<std::vector<char>> assets;
   for (int threads : {1, 3}) {
@@ -89,9 +86,6 @@ TEST(BuilderThreads, MappedBuildsAreRaceFreeAndIdentical) {
 // threads: a bracket at two resolutions across its bend angle, where elements across the split
 // refine their canonical mesh, gives the same bytes on 1 and 3 threads.
 TEST(BuilderThreads, RefinedCanonicalBuildsAreRaceFreeAndIdentical) {
-#ifndef CADINTERP_HAVE_MAPPING
-  GTEST_SKIP() << "built without the mapping component (CADINTERP_WITH_MAPPING=OFF)";
-#endif
   const char* err = nullptr;
   cadinterp::builder::SplitHost two;
   two.below = cadinterp_host_entry("bracket", "cells=3", &err);

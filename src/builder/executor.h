@@ -7,8 +7,7 @@
 #include <functional>
 #include <vector>
 
-#include "builder/host_call.h"
-#include "builder/sample.h"
+#include "builder/mesh_types.h"
 
 namespace cadinterp::builder {
 

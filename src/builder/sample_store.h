@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "builder/sample.h"
+#include "builder/mesh_types.h"
 
 struct sqlite3;
 struct sqlite3_stmt;

@@ -48,7 +48,7 @@ struct BoundaryUntangleResult {
   std::size_t moved = 0;  ///< dofs whose parameters changed
 };
 
-/// Moves the dofs of vertices of inverted or flat tets (6V <= min_six_volume, builder::validate's
+/// Moves the dofs of vertices of inverted or flat tets (6V <= min_six_volume, mesh::validate's
 /// rule) to untangle them, in `rounds` passes: a pass that fixes nothing widens the set to the
 /// dofs of tets sharing a vertex with an inverted one (a neighbour may block the way). A move is
 /// kept only when it lowers the number of inverted tets around that vertex, or keeps it and

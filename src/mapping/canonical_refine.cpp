@@ -8,7 +8,7 @@
 #include <thread>
 #include <utility>
 
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::mapping {
 
@@ -25,9 +25,9 @@ double squared_length(const std::vector<double>& V, std::uint32_t a, std::uint32
 
 }  // namespace
 
-builder::Sample bisect_edges(const builder::Sample& s,
+mesh::Sample bisect_edges(const mesh::Sample& s,
                              const std::vector<std::array<std::uint32_t, 2>>& edges) {
-  builder::Sample r = s;
+  mesh::Sample r = s;
   // Per vertex, the tets and triangles holding it, kept up to date as elements split, so that
   // each edge finds its elements without a scan of the mesh.
   std::vector<std::vector<std::uint32_t>> tets_of(r.vertex_count()), tris_of(r.vertex_count());
@@ -74,7 +74,7 @@ builder::Sample bisect_edges(const builder::Sample& s,
           0.5 * (r.vertices[3 * std::size_t(a) + k] + r.vertices[3 * std::size_t(b) + k]));
     tets_of.emplace_back();
     tris_of.emplace_back();
-    for (builder::Field& f : r.fields) {
+    for (mesh::Field& f : r.fields) {
       const auto c = static_cast<std::size_t>(f.components);
       if (f.location == 0) {
         for (std::size_t k = 0; k < c; ++k)
@@ -96,12 +96,12 @@ builder::Sample bisect_edges(const builder::Sample& s,
 namespace {
 
 // mapped_departure with the source's surface index given (built once per source).
-double departure(const builder::Sample& source, const builder::SurfaceIndex& on_source,
-                 const builder::Sample& canonical, const std::vector<double>& mapped_vertices,
+double departure(const mesh::Sample& source, const mesh::SurfaceIndex& on_source,
+                 const mesh::Sample& canonical, const std::vector<double>& mapped_vertices,
                  double tolerance, std::vector<std::size_t>* marked) {
   const double diag = source.bbox_diagonal();
   if (!(diag > 0)) return 0;
-  const builder::SurfaceIndex on_mapped(mapped_vertices, canonical.triangles);
+  const mesh::SurfaceIndex on_mapped(mapped_vertices, canonical.triangles);
   double worst = 0;
   std::set<std::size_t> mark;
   // Source vertices far from the mapped surface: a canonical triangle spans a bend of the
@@ -132,16 +132,16 @@ double departure(const builder::Sample& source, const builder::SurfaceIndex& on_
 
 }  // namespace
 
-double mapped_departure(const builder::Sample& source, const builder::Sample& canonical,
+double mapped_departure(const mesh::Sample& source, const mesh::Sample& canonical,
                         const std::vector<double>& mapped_vertices, double tolerance,
                         std::vector<std::size_t>* marked) {
-  const builder::SurfaceIndex on_source(source.vertices, source.triangles);
+  const mesh::SurfaceIndex on_source(source.vertices, source.triangles);
   return departure(source, on_source, canonical, mapped_vertices, tolerance, marked);
 }
 
-bool refine_canonical(const std::vector<const builder::Sample*>& sources,
-                      const builder::Sample& canonical, const builder::Mapper& mapper,
-                      builder::Sample& refined, std::vector<builder::MappedSample>& mapped,
+bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
+                      const mesh::Sample& canonical, const mesh::Mapper& mapper,
+                      mesh::Sample& refined, std::vector<mesh::MappedSample>& mapped,
                       std::string& why, RefineStats* stats, const RefineOptions& options) {
   RefineStats st;
   // The edge lists bisected so far, round by round (`c` below is the canonical bisected so).
@@ -152,19 +152,19 @@ bool refine_canonical(const std::vector<const builder::Sample*>& sources,
   // canonical's, so that is its exact map, new vertices on its own surface, and no mapping.
   // Sources are mapped on up to options.threads threads (the mapper is const and thread-safe);
   // the first failure in source order is reported, whichever thread met it.
-  auto map_all = [&](const builder::Sample& c, std::vector<builder::MappedSample>& out,
+  auto map_all = [&](const mesh::Sample& c, std::vector<mesh::MappedSample>& out,
                      std::string& w) {
-    out.assign(sources.size(), builder::MappedSample());
+    out.assign(sources.size(), mesh::MappedSample());
     std::vector<std::string> whys(sources.size());
     std::vector<char> ok(sources.size(), 1);
     std::atomic<std::size_t> next{0};
     auto work = [&] {
       for (std::size_t i; (i = next++) < sources.size();) {
-        if (builder::same_combinatorics(*sources[i], canonical)) {
-          builder::Sample b = *sources[i];
+        if (mesh::same_combinatorics(*sources[i], canonical)) {
+          mesh::Sample b = *sources[i];
           for (const auto& edges : history) b = bisect_edges(b, edges);
           out[i].vertices = std::move(b.vertices);
-          for (builder::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
+          for (mesh::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
         } else {
           ok[i] = mapper.map(*sources[i], c, out[i], whys[i]) ? 1 : 0;
         }
@@ -184,28 +184,28 @@ bool refine_canonical(const std::vector<const builder::Sample*>& sources,
       }
     return true;
   };
-  std::vector<builder::SurfaceIndex> on_source;
+  std::vector<mesh::SurfaceIndex> on_source;
   on_source.reserve(sources.size());
   // Per source and face tag, that face's triangles alone: an edge's offset is measured from
   // its own face, since a chord along a sharp CAD edge lies on the plane next to it (a bend's
   // arc beside a flat side face) and measured from the whole surface would show no sag.
-  std::vector<std::map<std::int32_t, builder::SurfaceIndex>> on_face(sources.size());
+  std::vector<std::map<std::int32_t, mesh::SurfaceIndex>> on_face(sources.size());
   for (std::size_t i = 0; i < sources.size(); ++i) {
-    const builder::Sample& s = *sources[i];
+    const mesh::Sample& s = *sources[i];
     on_source.emplace_back(s.vertices, s.triangles);
     std::map<std::int32_t, std::vector<std::uint32_t>> faces;
     for (std::size_t t = 0; t < s.triangle_count(); ++t)
       faces[s.triangle_tags[t]].insert(faces[s.triangle_tags[t]].end(), &s.triangles[3 * t],
                                        &s.triangles[3 * t + 3]);
     for (const auto& [tag, F] : faces)
-      on_face[i].emplace(tag, builder::SurfaceIndex(s.vertices, F));
+      on_face[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
   }
   // The departure of every source on `c`, and the edges to bisect, over all sources: per
   // marked triangle, every edge whose mapped midpoint lies off the source's face by at least
   // half the most any of its edges does. On a cylinder a triangle's edge across the bend and
   // its diagonal have the same sag (kappa L^2 / 8 along the curvature kappa in the edge's
   // direction), and splitting only one leaves the other's; the axial edge has none.
-  auto measure = [&](const builder::Sample& c, const std::vector<builder::MappedSample>& m,
+  auto measure = [&](const mesh::Sample& c, const std::vector<mesh::MappedSample>& m,
                      std::set<std::array<std::uint32_t, 2>>& edges) {
     double worst = 0;
     for (std::size_t i = 0; i < sources.size(); ++i) {
@@ -217,7 +217,7 @@ bool refine_canonical(const std::vector<const builder::Sample*>& sources,
         const std::uint32_t* f = &c.triangles[3 * t];
         // Its face on the source (a tag the source lacks, after a topology change: the whole).
         const auto face = on_face[i].find(c.triangle_tags[t]);
-        const builder::SurfaceIndex& under = face != on_face[i].end() ? face->second : on_source[i];
+        const mesh::SurfaceIndex& under = face != on_face[i].end() ? face->second : on_source[i];
         double off[3], most = 0;
         for (int k = 0; k < 3; ++k) {
           const std::uint32_t a = f[k], b = f[(k + 1) % 3];
@@ -242,7 +242,7 @@ bool refine_canonical(const std::vector<const builder::Sample*>& sources,
   st.before = st.after = measure(refined, mapped, edges);
   // Rounds go on from the last refined mesh even where one did not lower the departure (the
   // bend's diagonals are split the round after its edges across it); the best is kept.
-  builder::Sample current = canonical;
+  mesh::Sample current = canonical;
   const double limit = (1.0 + options.max_growth) * static_cast<double>(canonical.vertex_count());
   for (int round = 0; round < options.rounds && !edges.empty(); ++round) {
     if (static_cast<double>(current.vertex_count() + edges.size()) > limit) {
@@ -251,8 +251,8 @@ bool refine_canonical(const std::vector<const builder::Sample*>& sources,
     }
     // Sorted edges: the refined mesh is a function of the inputs alone.
     history.emplace_back(edges.begin(), edges.end());
-    builder::Sample next = bisect_edges(current, history.back());
-    std::vector<builder::MappedSample> next_mapped;
+    mesh::Sample next = bisect_edges(current, history.back());
+    std::vector<mesh::MappedSample> next_mapped;
     std::string w;
     if (!map_all(next, next_mapped, w)) {
       st.stopped = "round " + std::to_string(round + 1) + " could not be mapped: " + w;

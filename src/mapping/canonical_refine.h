@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "builder/mapping_hook.h"
-#include "builder/sample.h"
+#include "mesh/mapper.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -30,7 +30,7 @@ namespace cadinterp::mapping {
 /// are kept: paths are polylines, and a midpoint of a path's mesh edge lies on it. Pairs that
 /// are not boundary edges (already split in this call, interior, indices out of range) are
 /// skipped.
-builder::Sample bisect_edges(const builder::Sample& s,
+mesh::Sample bisect_edges(const mesh::Sample& s,
                              const std::vector<std::array<std::uint32_t, 2>>& edges);
 
 struct RefineOptions {
@@ -62,7 +62,7 @@ struct RefineStats {
 /// `canonical`, #V of the canonical by 3) from the source's boundary, measured as
 /// refine_canonical does; the boundary triangles of `canonical` where it exceeds `tolerance` are
 /// appended to `marked` when it is not null.
-double mapped_departure(const builder::Sample& source, const builder::Sample& canonical,
+double mapped_departure(const mesh::Sample& source, const mesh::Sample& canonical,
                         const std::vector<double>& mapped_vertices, double tolerance,
                         std::vector<std::size_t>* marked);
 
@@ -77,9 +77,9 @@ double mapped_departure(const builder::Sample& source, const builder::Sample& ca
 /// kept. `stats` may be null. When `mapped` holds one entry per source on entry, those are taken
 /// as the sources already mapped onto `canonical` (the builder's, which has them) instead of
 /// mapping them again.
-bool refine_canonical(const std::vector<const builder::Sample*>& sources,
-                      const builder::Sample& canonical, const builder::Mapper& mapper,
-                      builder::Sample& refined, std::vector<builder::MappedSample>& mapped,
+bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
+                      const mesh::Sample& canonical, const mesh::Mapper& mapper,
+                      mesh::Sample& refined, std::vector<mesh::MappedSample>& mapped,
                       std::string& why, RefineStats* stats = nullptr,
                       const RefineOptions& options = RefineOptions());
 

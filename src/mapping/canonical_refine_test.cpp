@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "analytic_host.h"
-#include "builder/host_call.h"
+#include "mesh/host_call.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
@@ -20,17 +20,17 @@ namespace {
 
 using namespace cadinterp;
 
-builder::Sample bracket(const char* options, const std::vector<double>& x) {
+mesh::Sample bracket(const char* options, const std::vector<double>& x) {
   const char* err = nullptr;
   const cadinterp_host* host = cadinterp_host_entry("bracket", options, &err);
   if (!host) throw std::runtime_error(err ? err : "no host");
-  builder::Sample s = builder::Host(*host).evaluate(x.data());
+  mesh::Sample s = mesh::Host(*host).evaluate(x.data());
   if (!s.feasible) throw std::runtime_error("infeasible: " + s.message);
   return s;
 }
 
 // Sum over tets of a per-tet field times the tet's volume, and the solid's volume.
-void integrals(const builder::Sample& s, int field, double& volume, double& integral) {
+void integrals(const mesh::Sample& s, int field, double& volume, double& integral) {
   volume = integral = 0;
   for (std::size_t t = 0; t < s.tet_count(); ++t) {
     const double v = mapping::six_volume(s.vertices, &s.tets[4 * t]) / 6.0;
@@ -39,18 +39,18 @@ void integrals(const builder::Sample& s, int field, double& volume, double& inte
   }
 }
 
-double boundary_area(const builder::Sample& s) {
+double boundary_area(const mesh::Sample& s) {
   const std::set<std::int32_t> tags(s.triangle_tags.begin(), s.triangle_tags.end());
   return mapping::tagged_area(s.vertices, s, std::vector<std::int32_t>(tags.begin(), tags.end()));
 }
 
 TEST(CanonicalRefine, BisectionSplitsEveryElementAroundTheEdgeAndKeepsTheSolid) {
-  const builder::Sample s = bracket("cells=2", {60.0, 45.0, 5.0, 90.0});
-  ASSERT_EQ(builder::validate(s), "");
+  const mesh::Sample s = bracket("cells=2", {60.0, 45.0, 5.0, 90.0});
+  ASSERT_EQ(mesh::validate(s), "");
   // Fields: temperature per vertex (0), von_mises per tet (1).
   ASSERT_EQ(s.fields.size(), 2u);
   ASSERT_EQ(s.fields[1].location, 1);
-  auto around = [&](const builder::Sample& m, std::uint32_t a, std::uint32_t b, bool tets) {
+  auto around = [&](const mesh::Sample& m, std::uint32_t a, std::uint32_t b, bool tets) {
     const std::vector<std::uint32_t>& e = tets ? m.tets : m.triangles;
     const std::size_t n = tets ? 4 : 3;
     int count = 0;
@@ -78,8 +78,8 @@ TEST(CanonicalRefine, BisectionSplitsEveryElementAroundTheEdgeAndKeepsTheSolid) 
   ASSERT_GT(tets1, 0);
   ASSERT_EQ(around(s, f0[0], far, true), 0);
 
-  const builder::Sample r = mapping::bisect_edges(s, edges);
-  EXPECT_EQ(builder::validate(r), "");  // positive tets, consistent triangles, tags, fields
+  const mesh::Sample r = mapping::bisect_edges(s, edges);
+  EXPECT_EQ(mesh::validate(r), "");  // positive tets, consistent triangles, tags, fields
   ASSERT_EQ(r.vertex_count(), s.vertex_count() + 2);
   EXPECT_EQ(r.tet_count(), s.tet_count() + static_cast<std::size_t>(tets0 + tets1));
   EXPECT_EQ(r.triangle_count(), s.triangle_count() + 4);  // two triangles at each edge
@@ -109,7 +109,7 @@ TEST(CanonicalRefine, BisectionSplitsEveryElementAroundTheEdgeAndKeepsTheSolid) 
 
   // Only pairs that are no boundary edge: nothing changes.
   const auto V = static_cast<std::uint32_t>(s.vertex_count());
-  const builder::Sample same =
+  const mesh::Sample same =
       mapping::bisect_edges(s, {{f0[0], far}, {f0[0], f0[0]}, {f0[0], V}, {V + 7, 0}});
   EXPECT_EQ(same.vertices, s.vertices);
   EXPECT_EQ(same.tets, s.tets);
@@ -121,21 +121,21 @@ TEST(CanonicalRefine, BisectionSplitsEveryElementAroundTheEdgeAndKeepsTheSolid) 
 // canonical sample itself mapped onto the refined mesh as well (an element's own term).
 TEST(CanonicalRefine, CoarseCanonicalUnderABendFallsBelowTheTolerance) {
   const std::vector<double> xc{62.0, 44.0, 6.0, 100.0};
-  const builder::Sample canonical = bracket("cells=6", xc);
+  const mesh::Sample canonical = bracket("cells=6", xc);
   for (const std::vector<double>& xa :
        {std::vector<double>{62.0, 44.0, 6.0, 100.0}, std::vector<double>{48.0, 56.0, 4.0, 130.0},
         std::vector<double>{75.0, 33.0, 7.5, 135.0}}) {
     SCOPED_TRACE(testing::Message() << "source at " << xa[0] << ", " << xa[3] << " deg");
-    const builder::Sample source = bracket("cells=12", xa);
+    const mesh::Sample source = bracket("cells=12", xa);
     const mapping::MeshMapper mapper;
-    builder::MappedSample direct;
+    mesh::MappedSample direct;
     std::string why;
     ASSERT_TRUE(mapper.map(source, canonical, direct, why)) << why;
     const double before = mapping::mapped_departure(source, canonical, direct.vertices, 0, nullptr);
     EXPECT_GT(before, 1e-3);  // what refinement is for
 
-    builder::Sample refined;
-    std::vector<builder::MappedSample> mapped;
+    mesh::Sample refined;
+    std::vector<mesh::MappedSample> mapped;
     mapping::RefineStats stats;
     ASSERT_TRUE(mapping::refine_canonical({&source, &canonical}, canonical, mapper, refined, mapped,
                                           why, &stats))
@@ -146,9 +146,9 @@ TEST(CanonicalRefine, CoarseCanonicalUnderABendFallsBelowTheTolerance) {
     EXPECT_EQ(stats.added_vertices, refined.vertex_count() - canonical.vertex_count());
     EXPECT_LE(static_cast<double>(refined.vertex_count()),
               1.5 * static_cast<double>(canonical.vertex_count()));
-    EXPECT_EQ(builder::validate(refined), "");
+    EXPECT_EQ(mesh::validate(refined), "");
     ASSERT_EQ(mapped.size(), 2u);
-    for (const builder::MappedSample& m : mapped) {
+    for (const mesh::MappedSample& m : mapped) {
       EXPECT_EQ(m.vertices.size(), refined.vertices.size());
       EXPECT_EQ(mapping::tet_quality(m.vertices, refined.tets).inverted, 0u);
     }
@@ -159,8 +159,8 @@ TEST(CanonicalRefine, CoarseCanonicalUnderABendFallsBelowTheTolerance) {
     // The same on two threads.
     mapping::RefineOptions two;
     two.threads = 2;
-    builder::Sample refined2;
-    std::vector<builder::MappedSample> mapped2;
+    mesh::Sample refined2;
+    std::vector<mesh::MappedSample> mapped2;
     ASSERT_TRUE(mapping::refine_canonical({&source, &canonical}, canonical, mapper, refined2,
                                           mapped2, why, nullptr, two));
     EXPECT_EQ(refined2.tets, refined.tets);

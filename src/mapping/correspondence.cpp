@@ -14,11 +14,11 @@ namespace {
 
 // Edge-end points of a sample: for each path between a B-rep vertex and a point of an edge,
 // {edge key, -2, t} -> the vertex's position, t = 0 at the edge's lower-id end, 1 at the other.
-std::map<Id, const double*> edge_ends(const builder::Sample& s) {
+std::map<Id, const double*> edge_ends(const mesh::Sample& s) {
   std::map<Id, const double*> out;
   std::map<Id, const double*> by_id;
-  for (const builder::ControlPoint& p : s.points) by_id.emplace(p.id, p.position);
-  for (const builder::Path& p : s.paths) {
+  for (const mesh::ControlPoint& p : s.points) by_id.emplace(p.id, p.position);
+  for (const mesh::Path& p : s.paths) {
     const Id key = path_edge_key(p);
     if (key.size() < 4 || key[0] != 1) continue;
     for (const Id* end : {&p.a, &p.b}) {
@@ -39,12 +39,12 @@ std::map<Id, const double*> edge_ends(const builder::Sample& s) {
 
 }  // namespace
 
-Correspondence correspond(const builder::Sample& source, const builder::Sample& canonical) {
+Correspondence correspond(const mesh::Sample& source, const mesh::Sample& canonical) {
   Correspondence c;
   std::map<Id, std::pair<const double*, const double*>> all;
   std::map<Id, const double*> in_source;
-  for (const builder::ControlPoint& p : source.points) in_source.emplace(p.id, p.position);
-  for (const builder::ControlPoint& p : canonical.points) {
+  for (const mesh::ControlPoint& p : source.points) in_source.emplace(p.id, p.position);
+  for (const mesh::ControlPoint& p : canonical.points) {
     auto it = in_source.find(p.id);
     if (it != in_source.end()) all.emplace(p.id, std::make_pair(it->second, p.position));
   }
@@ -62,14 +62,14 @@ Correspondence correspond(const builder::Sample& source, const builder::Sample& 
     c.anchors.push_back(std::move(a));
   }
   std::set<Id> a, b;
-  for (const builder::Path& p : source.paths) a.insert(path_edge_key(p));
-  for (const builder::Path& p : canonical.paths) b.insert(path_edge_key(p));
+  for (const mesh::Path& p : source.paths) a.insert(path_edge_key(p));
+  for (const mesh::Path& p : canonical.paths) b.insert(path_edge_key(p));
   std::set_intersection(a.begin(), a.end(), b.begin(), b.end(),
                         std::inserter(c.common_edges, c.common_edges.end()));
   return c;
 }
 
-Id path_edge_key(const builder::Path& p) {
+Id path_edge_key(const mesh::Path& p) {
   for (const Id* end : {&p.a, &p.b}) {
     if (!end->empty() && (*end)[0] == 1) {
       const auto stop = std::find(end->begin(), end->end(), -1);
@@ -103,12 +103,12 @@ double point_segment_distance(const double* p, const double* a, const double* b,
 
 std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges,
                               double tolerance) {
-  const builder::Sample& m = *s.sample;
+  const mesh::Sample& m = *s.sample;
   const int H = 3 * s.triangles();
   std::vector<char> cut(static_cast<std::size_t>(H), 0);
   std::vector<Id> keys;
   keys.reserve(m.paths.size());
-  for (const builder::Path& p : m.paths) keys.push_back(path_edge_key(p));
+  for (const mesh::Path& p : m.paths) keys.push_back(path_edge_key(p));
   // Seams: a common CAD edge with the same face on both sides (a periodic face's seam, e.g. a
   // cylinder's: the OpenCASCADE host emits its paths like any edge's). Its mesh edges are the
   // pairs of consecutive polyline nodes (paths run through mesh vertices, cadinterp_builder.h);

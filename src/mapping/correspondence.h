@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 #include "mapping/surface.h"
 
 namespace cadinterp::mapping {
@@ -32,12 +32,12 @@ struct Correspondence {
   std::set<Id> common_edges;
 };
 
-Correspondence correspond(const builder::Sample& source, const builder::Sample& canonical);
+Correspondence correspond(const mesh::Sample& source, const mesh::Sample& canonical);
 
 /// The CAD edge a path lies on: the edge part of an edge-sample ID at either end ({1, edge id,
 /// end vertex ids...}, the prefix before -1), else (a path between two B-rep vertices, i.e. a
 /// whole edge) {2, |a|, a..., b...} with a <= b.
-Id path_edge_key(const builder::Path& p);
+Id path_edge_key(const mesh::Path& p);
 
 /// Per half-edge of `s`: 1 where the common patch layout cuts the surface. A half-edge between
 /// triangles of different face tags is cut unless it lies (within `tolerance`) on a path whose

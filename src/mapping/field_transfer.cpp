@@ -11,9 +11,9 @@ namespace cadinterp::mapping {
 namespace {
 
 // The named regions each tag lies in (sorted names), for the tags of `s`'s regions.
-std::map<std::int32_t, std::vector<std::string>> regions_of_tags(const builder::Sample& s) {
+std::map<std::int32_t, std::vector<std::string>> regions_of_tags(const mesh::Sample& s) {
   std::map<std::int32_t, std::vector<std::string>> in;
-  for (const builder::Region& r : s.regions)
+  for (const mesh::Region& r : s.regions)
     for (std::int32_t t : r.face_tags) in[t].push_back(r.name);
   for (auto& [t, names] : in) {
     std::sort(names.begin(), names.end());
@@ -24,8 +24,8 @@ std::map<std::int32_t, std::vector<std::string>> regions_of_tags(const builder::
 
 }  // namespace
 
-bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& canonical,
-                         const std::vector<double>& positions, builder::Sample& out,
+bool mesh_for_simulation(const mesh::Sample& source, const mesh::Sample& canonical,
+                         const std::vector<double>& positions, mesh::Sample& out,
                          std::string& why) {
   const auto in_source = regions_of_tags(source);
   const auto in_canonical = regions_of_tags(canonical);
@@ -63,7 +63,7 @@ bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& c
     }
     tag_of[t] = it->first;
   }
-  out = builder::Sample{};
+  out = mesh::Sample{};
   out.vertices = positions;
   out.tets = canonical.tets;
   out.triangles = canonical.triangles;
@@ -72,7 +72,7 @@ bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& c
   return true;
 }
 
-TetLocator::TetLocator(const builder::Sample& s) : s_(s) {
+TetLocator::TetLocator(const mesh::Sample& s) : s_(s) {
   const std::size_t V = s.vertex_count(), T = s.tet_count();
   if (T == 0) return;
   double hi[3] = {-1e300, -1e300, -1e300};
@@ -188,8 +188,8 @@ int TetLocator::locate(const double* p, double w[4]) const {
   return best_t;
 }
 
-std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
-                                                 const builder::Sample& canonical,
+std::vector<std::vector<double>> transfer_fields(const mesh::Sample& source,
+                                                 const mesh::Sample& canonical,
                                                  const std::vector<double>& mapped,
                                                  const std::vector<char>& on_surface,
                                                  const std::vector<SurfacePoint>& surface_points,
@@ -197,7 +197,7 @@ std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
   std::vector<std::vector<double>> out;
   const std::size_t V = canonical.vertex_count(), T = canonical.tet_count();
   bool need_vertex = false, need_tet = false;
-  for (const builder::Field& f : source.fields) (f.location == 0 ? need_vertex : need_tet) = true;
+  for (const mesh::Field& f : source.fields) (f.location == 0 ? need_vertex : need_tet) = true;
   // Interior vertices: the source tet containing the mapped position.
   std::vector<int> vtet(V, -1);
   std::vector<double> vw(4 * V, 0.0);
@@ -214,7 +214,7 @@ std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
                   mapped[3 * std::size_t(canonical.tets[4 * t + std::size_t(i)]) + std::size_t(a)];
       ttet[t] = locator.locate(c, w);
     }
-  for (const builder::Field& f : source.fields) {
+  for (const mesh::Field& f : source.fields) {
     const std::size_t C = static_cast<std::size_t>(f.components);
     std::vector<double> values;
     if (f.location == 0) {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 #include "mapping/surface.h"
 
 namespace cadinterp::mapping {
@@ -17,13 +17,13 @@ namespace cadinterp::mapping {
 /// Point location in a tet mesh (uniform grid over the tets' bounding boxes).
 class TetLocator {
  public:
-  explicit TetLocator(const builder::Sample& s);
+  explicit TetLocator(const mesh::Sample& s);
   /// The tet containing p with its barycentric weights; a point outside the mesh gets the tet
   /// nearest in barycentric terms among those around it, weights clamped. -1 for an empty mesh.
   int locate(const double* p, double w[4]) const;
 
  private:
-  const builder::Sample& s_;
+  const mesh::Sample& s_;
   double lo_[3] = {0, 0, 0}, cell_ = 1;
   int n_[3] = {1, 1, 1};
   std::vector<std::uint32_t> start_, items_;
@@ -33,8 +33,8 @@ class TetLocator {
 
 /// Per source field, the canonical values. `surface_points[v]` is set for canonical boundary
 /// vertices (`on_surface[v]`), `mapped` the canonical vertices' mapped positions (#V by 3).
-std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
-                                                 const builder::Sample& canonical,
+std::vector<std::vector<double>> transfer_fields(const mesh::Sample& source,
+                                                 const mesh::Sample& canonical,
                                                  const std::vector<double>& mapped,
                                                  const std::vector<char>& on_surface,
                                                  const std::vector<SurfacePoint>& surface_points,
@@ -47,8 +47,8 @@ std::vector<std::vector<double>> transfer_fields(const builder::Sample& source,
 /// that the host's boundary conditions at the source's parameters fall on the faces the
 /// canonical's regions name (requirement 5: a force or fixture stays on its CAD face). False with
 /// `why` where no source face lies in some canonical face's regions.
-bool mesh_for_simulation(const builder::Sample& source, const builder::Sample& canonical,
-                         const std::vector<double>& positions, builder::Sample& out,
+bool mesh_for_simulation(const mesh::Sample& source, const mesh::Sample& canonical,
+                         const std::vector<double>& positions, mesh::Sample& out,
                          std::string& why);
 
 }  // namespace cadinterp::mapping

@@ -46,7 +46,7 @@ struct FoldoverFreeResult {
 
 /// Moves the vertices not marked in `fixed` so that the tets `tets` (#T by 4) with positions `x`
 /// (#V by 3) are oriented, their shapes kept near those of `reference` (#V by 3, the canonical
-/// mesh's positions). A tet counts as inverted where 6 V <= `min_six_volume` (builder::validate's
+/// mesh's positions). A tet counts as inverted where 6 V <= `min_six_volume` (mesh::validate's
 /// rule). `x` is changed only when the result has fewer inverted tets than the input; tets whose
 /// four vertices are all fixed cannot change and are counted as they are. Deterministic
 /// (sequential, fixed order).

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -162,7 +162,7 @@ double six_volume(const std::vector<double>& x, const std::uint32_t* t) {
 }
 
 double min_six_volume(const std::vector<double>& vertices) {
-  const double diag = builder::bbox_diagonal(vertices);
+  const double diag = mesh::bbox_diagonal(vertices);
   return 1e-12 * diag * diag * diag;
 }
 
@@ -170,7 +170,7 @@ TetQuality tet_quality(const std::vector<double>& vertices,
                        const std::vector<std::uint32_t>& tets) {
   TetQuality q;
   const std::size_t T = tets.size() / 4;
-  // The rule of builder::validate: 6 V above 1e-12 diag^3.
+  // The rule of mesh::validate: 6 V above 1e-12 diag^3.
   const double min_six = min_six_volume(vertices);
   for (std::size_t t = 0; t < T; ++t) {
     const double* p[4];

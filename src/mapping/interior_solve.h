@@ -33,13 +33,13 @@ bool incremental_interior(const std::vector<double>& vertices,
 /// 6 x the signed volume of the tet `t` (4 indices) with positions `x` (#V by 3).
 double six_volume(const std::vector<double>& x, const std::uint32_t* t);
 
-/// builder::validate's bound for a flat tet: 6 V <= 1e-12 diag^3, diag the bbox diagonal of
+/// mesh::validate's bound for a flat tet: 6 V <= 1e-12 diag^3, diag the bbox diagonal of
 /// `vertices`.
 double min_six_volume(const std::vector<double>& vertices);
 
 struct TetQuality {
   double min_scaled_jacobian = 1.0;  ///< 1 for a regular tet, <= 0 inverted or flat
-  std::size_t inverted = 0;          ///< tets with 6 V <= 1e-12 diag^3 (builder::validate's rule)
+  std::size_t inverted = 0;          ///< tets with 6 V <= 1e-12 diag^3 (mesh::validate's rule)
 };
 
 /// Scaled Jacobian: min over corners of 6 V / (product of the corner's edge lengths), times

@@ -12,16 +12,16 @@ namespace cadinterp::mapping {
 namespace {
 
 // Edges of `mine` whose key the other sample lacks, with their vertex ends.
-void collect(const builder::Sample& mine, const std::set<Id>& common, bool in_source,
+void collect(const mesh::Sample& mine, const std::set<Id>& common, bool in_source,
              const Correspondence& corr, double tolerance, std::vector<OneSidedEdge>& out) {
   std::map<Id, const double*> point;
-  for (const builder::ControlPoint& p : mine.points) point.emplace(p.id, p.position);
+  for (const mesh::ControlPoint& p : mine.points) point.emplace(p.id, p.position);
   struct Acc {
     double length = 0;
     std::vector<const double*> ends;
   };
   std::map<Id, Acc> edges;
-  for (const builder::Path& p : mine.paths) {
+  for (const mesh::Path& p : mine.paths) {
     const Id key = path_edge_key(p);
     if (common.count(key)) continue;
     Acc& acc = edges[key];
@@ -51,8 +51,8 @@ void collect(const builder::Sample& mine, const std::set<Id>& common, bool in_so
 
 }  // namespace
 
-std::vector<OneSidedEdge> one_sided_edges(const builder::Sample& source,
-                                          const builder::Sample& canonical,
+std::vector<OneSidedEdge> one_sided_edges(const mesh::Sample& source,
+                                          const mesh::Sample& canonical,
                                           const Correspondence& corr, double source_tolerance,
                                           double canonical_tolerance) {
   std::vector<OneSidedEdge> out;

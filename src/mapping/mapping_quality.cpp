@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 #include "mapping/interior_solve.h"
 
 namespace cadinterp::mapping {
@@ -20,11 +20,11 @@ double percentile(std::vector<double> v, double q) {
 // Per canonical vertex, max over components |mapped - value_at(v)| / the source field's range,
 // for per-vertex field f of the source; vertices where value_at returns false are left out.
 template <class ValueAt>
-std::vector<double> vertex_errors(const builder::Sample& source,
-                                  const builder::MappedSample& mapped, std::size_t f,
+std::vector<double> vertex_errors(const mesh::Sample& source,
+                                  const mesh::MappedSample& mapped, std::size_t f,
                                   ValueAt&& value_at) {
   std::vector<double> errors;
-  const builder::Field& sf = source.fields[f];
+  const mesh::Field& sf = source.fields[f];
   const auto C = static_cast<std::size_t>(sf.components);
   const auto mm = std::minmax_element(sf.values.begin(), sf.values.end());
   const double range = sf.values.empty() ? 1 : std::max(*mm.second - *mm.first, 1e-300);
@@ -42,15 +42,15 @@ std::vector<double> vertex_errors(const builder::Sample& source,
 
 }  // namespace
 
-std::vector<FieldError> compare_fields(const builder::Sample& source,
-                                       const builder::MappedSample& mapped,
-                                       const builder::Sample& reference) {
+std::vector<FieldError> compare_fields(const mesh::Sample& source,
+                                       const mesh::MappedSample& mapped,
+                                       const mesh::Sample& reference) {
   std::vector<FieldError> out;
   for (std::size_t f = 0; f < source.fields.size() && f < mapped.fields.size(); ++f) {
-    const builder::Field& sf = source.fields[f];
+    const mesh::Field& sf = source.fields[f];
     if (sf.location != 0) continue;
     const auto r = std::find_if(
-        reference.fields.begin(), reference.fields.end(), [&](const builder::Field& g) {
+        reference.fields.begin(), reference.fields.end(), [&](const mesh::Field& g) {
           return g.name == sf.name && g.location == 0 && g.components == sf.components;
         });
     if (r == reference.fields.end() || r->values.size() != mapped.fields[f].size()) continue;
@@ -68,7 +68,7 @@ std::vector<FieldError> compare_fields(const builder::Sample& source,
   return out;
 }
 
-double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,
+double tagged_area(const std::vector<double>& vertices, const mesh::Sample& mesh,
                    const std::vector<std::int32_t>& tags) {
   double area = 0;
   for (std::size_t f = 0; f < mesh.triangle_count(); ++f) {
@@ -88,15 +88,15 @@ double tagged_area(const std::vector<double>& vertices, const builder::Sample& m
   return area;
 }
 
-PairQuality measure_pair(const builder::Sample& source, const builder::Sample& canonical,
-                         const builder::MappedSample& mapped, const FieldTruth& truth) {
+PairQuality measure_pair(const mesh::Sample& source, const mesh::Sample& canonical,
+                         const mesh::MappedSample& mapped, const FieldTruth& truth) {
   PairQuality q;
   const double diag = source.bbox_diagonal();
-  const builder::SurfaceIndex src(source.vertices, source.triangles);
-  const builder::SurfaceIndex map(mapped.vertices, canonical.triangles);
-  std::vector<double> d = builder::vertex_distances(mapped.vertices, canonical.triangles, src);
+  const mesh::SurfaceIndex src(source.vertices, source.triangles);
+  const mesh::SurfaceIndex map(mapped.vertices, canonical.triangles);
+  std::vector<double> d = mesh::vertex_distances(mapped.vertices, canonical.triangles, src);
   const std::vector<double> back =
-      builder::vertex_distances(source.vertices, source.triangles, map);
+      mesh::vertex_distances(source.vertices, source.triangles, map);
   d.insert(d.end(), back.begin(), back.end());
   for (double& x : d) x /= diag;
   if (!d.empty()) {
@@ -107,7 +107,7 @@ PairQuality measure_pair(const builder::Sample& source, const builder::Sample& c
     // its mesh, in vertex order: the mapped ones first.
     const std::size_t mapped_count = d.size() - back.size();
     const bool from_source = at >= mapped_count;
-    const builder::Sample& mesh = from_source ? source : canonical;
+    const mesh::Sample& mesh = from_source ? source : canonical;
     const std::vector<double>& x = from_source ? source.vertices : mapped.vertices;
     std::vector<char> used(x.size() / 3, 0);
     for (std::uint32_t i : mesh.triangles) used[i] = 1;
@@ -128,9 +128,9 @@ PairQuality measure_pair(const builder::Sample& source, const builder::Sample& c
   q.min_scaled_jacobian = t.min_scaled_jacobian;
   q.inverted = t.inverted;
 
-  for (const builder::Region& r : source.regions) {
+  for (const mesh::Region& r : source.regions) {
     const auto it = std::find_if(canonical.regions.begin(), canonical.regions.end(),
-                                 [&](const builder::Region& c) { return c.name == r.name; });
+                                 [&](const mesh::Region& c) { return c.name == r.name; });
     if (it == canonical.regions.end()) {
       q.region_area_error = std::max(q.region_area_error, 1.0);  // the region got lost
       continue;

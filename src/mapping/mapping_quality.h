@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "builder/mapping_hook.h"
-#include "builder/sample.h"
+#include "mesh/mapper.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -33,8 +33,8 @@ struct PairQuality {
 };
 
 /// `truth` may be empty (field errors stay 0).
-PairQuality measure_pair(const builder::Sample& source, const builder::Sample& canonical,
-                         const builder::MappedSample& mapped, const FieldTruth& truth);
+PairQuality measure_pair(const mesh::Sample& source, const mesh::Sample& canonical,
+                         const mesh::MappedSample& mapped, const FieldTruth& truth);
 
 /// The error of one per-vertex field carried by a mapping: over the canonical vertices, the max
 /// and the 99th percentile of max over components |mapped - reference| / the source field's
@@ -48,12 +48,12 @@ struct FieldError {
 /// `reference`, a sample on the mapped mesh (the host's simulate there, field_transfer.h's
 /// mesh_for_simulation):
 /// one entry per source field that `reference` also has, in the source's order.
-std::vector<FieldError> compare_fields(const builder::Sample& source,
-                                       const builder::MappedSample& mapped,
-                                       const builder::Sample& reference);
+std::vector<FieldError> compare_fields(const mesh::Sample& source,
+                                       const mesh::MappedSample& mapped,
+                                       const mesh::Sample& reference);
 
 /// Area of the triangles whose tag is in `tags` with positions `vertices`.
-double tagged_area(const std::vector<double>& vertices, const builder::Sample& mesh,
+double tagged_area(const std::vector<double>& vertices, const mesh::Sample& mesh,
                    const std::vector<std::int32_t>& tags);
 
 }  // namespace cadinterp::mapping

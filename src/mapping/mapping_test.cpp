@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "analytic_host.h"
-#include "builder/host_call.h"
-#include "builder/surface_distance.h"
+#include "mesh/host_call.h"
+#include "mesh/surface_distance.h"
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/field_transfer.h"
@@ -43,8 +43,8 @@ struct Model {
     if (!host) throw std::runtime_error(err ? err : "no host");
     model = analytic_host_model(host);
   }
-  builder::Sample at(const std::vector<double>& x) const {
-    builder::Sample s = builder::Host(*host).evaluate(x.data());
+  mesh::Sample at(const std::vector<double>& x) const {
+    mesh::Sample s = mesh::Host(*host).evaluate(x.data());
     if (!s.feasible) throw std::runtime_error("infeasible: " + s.message);
     return s;
   }
@@ -61,9 +61,9 @@ TEST(MeshMapper, SameSolidAtAnotherResolutionLandsOnTheCanonicalMesh) {
   const Model fine("plate", "edge=4");
   const Model coarse("plate", "edge=7");
   const std::vector<double> x{63.0, 37.0, 6.5};
-  const builder::Sample source = coarse.at(x), canonical = fine.at(x);
+  const mesh::Sample source = coarse.at(x), canonical = fine.at(x);
   ASSERT_NE(source.vertex_count(), canonical.vertex_count());
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   mapping::MapStats stats;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -72,7 +72,7 @@ TEST(MeshMapper, SameSolidAtAnotherResolutionLandsOnTheCanonicalMesh) {
   // Vertices may slide within a face (the two disk parametrizations differ), never off it: the
   // mapped boundary is the canonical one, and the tets fill the same volume.
   const double diag = canonical.bbox_diagonal();
-  EXPECT_LT(builder::symmetric_hausdorff(m.vertices, canonical.triangles, canonical.vertices,
+  EXPECT_LT(mesh::symmetric_hausdorff(m.vertices, canonical.triangles, canonical.vertices,
                                          canonical.triangles),
             1e-9 * diag);
   auto volume = [&](const std::vector<double>& v) {
@@ -93,7 +93,7 @@ TEST(MeshMapper, SameSolidAtAnotherResolutionLandsOnTheCanonicalMesh) {
   };
   EXPECT_NEAR(volume(m.vertices), x[0] * x[1] * x[2], 1e-9 * x[0] * x[1] * x[2]);
   // B-rep corners are control points: they land exactly on themselves.
-  for (const builder::ControlPoint& p : canonical.points) {
+  for (const mesh::ControlPoint& p : canonical.points) {
     if (p.id[0] != 0) continue;
     double best = 1e300;
     for (std::size_t v = 0; v < canonical.vertex_count(); ++v) {
@@ -126,8 +126,8 @@ TEST(MeshMapper, PlatePairsAcrossResolutionsMeetTheQualityTargets) {
   for (const auto& xa : xs)
     for (const auto& xc : xs) {
       if (xa == xc) continue;
-      const builder::Sample source = plate.at(xa), canonical = plate.at(xc);
-      builder::MappedSample m;
+      const mesh::Sample source = plate.at(xa), canonical = plate.at(xc);
+      mesh::MappedSample m;
       std::string why;
       ASSERT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
       const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, plate.truth(xa));
@@ -148,17 +148,17 @@ TEST(MeshMapper, PlatePairsAcrossResolutionsMeetTheQualityTargets) {
 // said, never crashed on.
 TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
   const Model plate("plate", "edge=5");
-  const builder::Host host(*plate.host);
+  const mesh::Host host(*plate.host);
   const std::vector<double> xa{57, 23, 9.1}, xc{91, 48, 3.3};
-  const builder::Sample source = plate.at(xa), canonical = plate.at(xc);
+  const mesh::Sample source = plate.at(xa), canonical = plate.at(xc);
   ASSERT_FALSE(source.regions.empty());
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
-  builder::Sample mesh;
+  mesh::Sample mesh;
   ASSERT_TRUE(mapping::mesh_for_simulation(source, canonical, m.vertices, mesh, why)) << why;
   EXPECT_EQ(mesh.triangle_tags, canonical.triangle_tags);  // the same faces on both sides
-  const builder::Sample r = host.simulate(xa.data(), mesh);
+  const mesh::Sample r = host.simulate(xa.data(), mesh);
   ASSERT_TRUE(r.feasible) << r.message;
   const std::vector<mapping::FieldError> errors = mapping::compare_fields(source, m, r);
   ASSERT_FALSE(errors.empty());
@@ -170,22 +170,22 @@ TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
 
   // The canonical's tags renumbered (its regions too): each face gets back a source tag in the
   // same regions, and each region keeps its mapped area.
-  builder::Sample renamed = canonical;
+  mesh::Sample renamed = canonical;
   for (std::int32_t& t : renamed.triangle_tags) t += 1000;
-  for (builder::Region& g : renamed.regions)
+  for (mesh::Region& g : renamed.regions)
     for (std::int32_t& t : g.face_tags) t += 1000;
-  builder::Sample retagged;
+  mesh::Sample retagged;
   ASSERT_TRUE(mapping::mesh_for_simulation(source, renamed, m.vertices, retagged, why)) << why;
-  for (const builder::Region& g : source.regions) {
+  for (const mesh::Region& g : source.regions) {
     const auto c = std::find_if(canonical.regions.begin(), canonical.regions.end(),
-                                [&](const builder::Region& h) { return h.name == g.name; });
+                                [&](const mesh::Region& h) { return h.name == g.name; });
     ASSERT_NE(c, canonical.regions.end());
     const double want = mapping::tagged_area(m.vertices, canonical, c->face_tags);
     EXPECT_GT(want, 0) << g.name;
     EXPECT_NEAR(mapping::tagged_area(retagged.vertices, retagged, g.face_tags), want, 1e-9 * want)
         << g.name;
   }
-  const builder::Sample r2 = host.simulate(xa.data(), retagged);
+  const mesh::Sample r2 = host.simulate(xa.data(), retagged);
   ASSERT_TRUE(r2.feasible) << r2.message;
 
   // A canonical face in a region the source lacks has no face to take its tag from.
@@ -196,12 +196,12 @@ TEST(MeshMapper, SimulateOnTheMappedMeshFindsTheRegionsByTheCanonicalsTags) {
   // A host without simulate, and a mesh with an inverted tet: infeasible, with the reason.
   cadinterp_host bare = *plate.host;
   bare.simulate = nullptr;
-  const builder::Sample none = builder::Host(bare).simulate(xa.data(), mesh);
+  const mesh::Sample none = mesh::Host(bare).simulate(xa.data(), mesh);
   EXPECT_FALSE(none.feasible);
   EXPECT_NE(none.message.find("no simulate"), std::string::npos) << none.message;
-  builder::Sample inverted = mesh;
+  mesh::Sample inverted = mesh;
   std::swap(inverted.tets[0], inverted.tets[1]);
-  const builder::Sample bad = host.simulate(xa.data(), inverted);
+  const mesh::Sample bad = host.simulate(xa.data(), inverted);
   EXPECT_FALSE(bad.feasible);
   EXPECT_NE(bad.message.find("the mesh to simulate on"), std::string::npos) << bad.message;
 }
@@ -214,8 +214,8 @@ TEST(MeshMapper, LargePatchesAreSubdividedWhereAPathAcrossIsMuchShorter) {
   const Model plate("plate", "edge=5");
   mapping::MapOptions options;
   options.subdivide_ratio = 0.3;
-  const builder::Sample source = plate.at({100, 30, 4}), canonical = plate.at({90, 40, 6});
-  builder::MappedSample m;
+  const mesh::Sample source = plate.at({100, 30, 4}), canonical = plate.at({90, 40, 6});
+  mesh::MappedSample m;
   std::string why;
   mapping::MapStats with, without;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &with, options)) << why;
@@ -225,7 +225,7 @@ TEST(MeshMapper, LargePatchesAreSubdividedWhereAPathAcrossIsMuchShorter) {
   EXPECT_LT(q.hausdorff_max, 1e-9);
   EXPECT_EQ(q.inverted, 0u);
   EXPECT_LT(q.field_max, 5e-2);
-  builder::MappedSample plain;
+  mesh::MappedSample plain;
   ASSERT_TRUE(mapping::map_sample(source, canonical, plain, why, &without)) << why;
   EXPECT_EQ(without.subdivided, 0u);
   EXPECT_EQ(with.patches, without.patches + with.subdivided);
@@ -242,12 +242,12 @@ TEST(MeshMapper, FoldplatePairsAcrossItsTopologyChange) {
   for (const auto& xa : xs)
     for (const auto& xc : xs) {
       if (xa == xc) continue;
-      const builder::Sample source = fold.at(xa), canonical = fold.at(xc);
-      const auto has7 = [](const builder::Sample& s) {
+      const mesh::Sample source = fold.at(xa), canonical = fold.at(xc);
+      const auto has7 = [](const mesh::Sample& s) {
         return std::count(s.triangle_tags.begin(), s.triangle_tags.end(), 7) > 0;
       };
       across += has7(source) != has7(canonical) ? 1 : 0;
-      builder::MappedSample m;
+      mesh::MappedSample m;
       std::string why;
       mapping::MapStats stats;
       ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -267,10 +267,10 @@ TEST(MeshMapper, FoldplatePairsAcrossItsTopologyChange) {
 TEST(MeshMapper, NeighbourTransferThroughASharedSample) {
   const Model plate("plate", "edge=5");
   const std::vector<double> xl{60, 30, 6}, xn{85, 50, 8}, xs{72, 40, 7}, xk{95, 55, 9};
-  const builder::Sample element = plate.at(xl), neighbour = plate.at(xn);
-  const builder::Sample shared = plate.at(xs), k = plate.at(xk);
-  ASSERT_FALSE(builder::same_combinatorics(element, neighbour));
-  builder::MappedSample s_n, s_l, k_n, k_l;
+  const mesh::Sample element = plate.at(xl), neighbour = plate.at(xn);
+  const mesh::Sample shared = plate.at(xs), k = plate.at(xk);
+  ASSERT_FALSE(mesh::same_combinatorics(element, neighbour));
+  mesh::MappedSample s_n, s_l, k_n, k_l;
   std::string why;
   ASSERT_TRUE(mapping::map_sample(shared, neighbour, s_n, why)) << why;
   ASSERT_TRUE(mapping::map_sample(shared, element, s_l, why)) << why;
@@ -283,7 +283,7 @@ TEST(MeshMapper, NeighbourTransferThroughASharedSample) {
   EXPECT_EQ(q.inverted, 0u);
   EXPECT_LT(q.region_area_error, 1e-2);
   EXPECT_LT(q.field_max, 5e-2);
-  builder::MappedSample wrong;
+  mesh::MappedSample wrong;
   EXPECT_FALSE(bridge.apply(s_l, wrong, why));  // not in the neighbour's combinatorics
 }
 
@@ -293,11 +293,11 @@ TEST(MeshMapper, NeighbourTransferThroughASharedSample) {
 // sides split it into disks; the mapping stays on the source's boundary.
 TEST(MeshMapper, PatchesWithHolesAreSplitIntoDisks) {
   const Model plate("plate", "edge=4");
-  auto band = [](builder::Sample s) {
+  auto band = [](mesh::Sample s) {
     for (std::int32_t& t : s.triangle_tags)
       if (t <= 4) t = 1;
     s.paths.erase(std::remove_if(s.paths.begin(), s.paths.end(),
-                                 [](const builder::Path& p) {
+                                 [](const mesh::Path& p) {
                                    const std::size_t n = p.polyline.size();
                                    return p.polyline[0] == p.polyline[n - 3] &&
                                           p.polyline[1] == p.polyline[n - 2];
@@ -305,9 +305,9 @@ TEST(MeshMapper, PatchesWithHolesAreSplitIntoDisks) {
                   s.paths.end());
     return s;
   };
-  const builder::Sample source = band(plate.at({52, 28, 7})),
+  const mesh::Sample source = band(plate.at({52, 28, 7})),
                         canonical = band(plate.at({88, 46, 5}));
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   mapping::MapStats stats;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -324,8 +324,8 @@ TEST(MeshMapper, PatchesWithHolesAreSplitIntoDisks) {
 
 TEST(MeshMapper, MappingASampleOntoItselfIsTheIdentity) {
   const Model plate("plate", "edge=6");
-  const builder::Sample s = plate.at({70, 30, 5});
-  builder::MappedSample m;
+  const mesh::Sample s = plate.at({70, 30, 5});
+  mesh::MappedSample m;
   std::string why;
   ASSERT_TRUE(mapping::map_sample(s, s, m, why)) << why;
   for (std::size_t i = 0; i < m.vertices.size(); ++i)
@@ -339,12 +339,12 @@ TEST(MeshMapper, MappingASampleOntoItselfIsTheIdentity) {
 
 TEST(MeshMapper, DeterministicAndThreadSafe) {
   const Model plate("plate", "edge=5");
-  const builder::Sample a = plate.at({48, 21, 4}), b = plate.at({95, 55, 9});
+  const mesh::Sample a = plate.at({48, 21, 4}), b = plate.at({95, 55, 9});
   const mapping::MeshMapper mapper;
-  builder::MappedSample first;
+  mesh::MappedSample first;
   std::string why;
   ASSERT_TRUE(mapper.map(a, b, first, why)) << why;
-  std::vector<builder::MappedSample> results(3);
+  std::vector<mesh::MappedSample> results(3);
   std::vector<std::thread> threads;
   for (auto& r : results)
     threads.emplace_back([&, rp = &r] {
@@ -360,10 +360,10 @@ TEST(MeshMapper, DeterministicAndThreadSafe) {
 
 TEST(MeshMapper, RefusesWithoutCommonControlPoints) {
   const Model plate("plate", "edge=5");
-  builder::Sample a = plate.at({48, 21, 4});
-  const builder::Sample b = plate.at({95, 55, 9});
+  mesh::Sample a = plate.at({48, 21, 4});
+  const mesh::Sample b = plate.at({95, 55, 9});
   for (auto& p : a.points) p.id.push_back(99);  // no ID equal any more
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   EXPECT_FALSE(mapping::map_sample(a, b, m, why));
   EXPECT_NE(why.find("no control point with the same ID"), std::string::npos) << why;
@@ -371,16 +371,16 @@ TEST(MeshMapper, RefusesWithoutCommonControlPoints) {
 
 TEST(MeshMapper, RefusesPatchesThatAreNotDisks) {
   const Model plate("plate", "edge=5");
-  builder::Sample a = plate.at({48, 21, 4});
-  builder::Sample b = plate.at({95, 55, 9});
+  mesh::Sample a = plate.at({48, 21, 4});
+  mesh::Sample b = plate.at({95, 55, 9});
   // One face tag everywhere and no paths on both sides (a path inside a face is a seam and cut
   // like a border; one side's paths would be traced on the other): the whole closed surface is
   // one patch (a sphere).
-  for (builder::Sample* x : {&a, &b}) {
+  for (mesh::Sample* x : {&a, &b}) {
     std::fill(x->triangle_tags.begin(), x->triangle_tags.end(), 1);
     x->paths.clear();
   }
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   EXPECT_FALSE(mapping::map_sample(a, b, m, why));
   EXPECT_NE(why.find("not a disk"), std::string::npos) << why;
@@ -388,16 +388,16 @@ TEST(MeshMapper, RefusesPatchesThatAreNotDisks) {
 
 TEST(MeshMapper, RefusesMalformedSamplesByName) {
   const Model plate("plate", "edge=5");
-  builder::Sample a = plate.at({48, 21, 4});
-  const builder::Sample b = plate.at({95, 55, 9});
+  mesh::Sample a = plate.at({48, 21, 4});
+  const mesh::Sample b = plate.at({95, 55, 9});
   a.triangles[7] = static_cast<std::uint32_t>(a.vertex_count() + 3);
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   EXPECT_FALSE(mapping::map_sample(a, b, m, why));
   EXPECT_NE(why.find("source sample is invalid: triangle vertex index out of range"),
             std::string::npos)
       << why;
-  builder::Sample c = b;
+  mesh::Sample c = b;
   c.fields[0].values.pop_back();
   EXPECT_FALSE(mapping::map_sample(b, c, m, why));
   EXPECT_NE(why.find("canonical sample is invalid"), std::string::npos) << why;
@@ -415,7 +415,7 @@ TEST(MeshMapper, InPatchRelaxationTightensCurvedFacesAndStaysOnTheSource) {
       {{50, 40, 4, 100}, {70, 50, 6, 60}}};
   double total[2] = {0, 0};
   for (const auto& [xa, xc] : pairs) {
-    const builder::Sample source = bracket.at(xa), canonical = bracket.at(xc);
+    const mesh::Sample source = bracket.at(xa), canonical = bracket.at(xc);
     double haus[2];
     for (int relax : {0, 1}) {
       mapping::MapOptions mo;
@@ -423,14 +423,14 @@ TEST(MeshMapper, InPatchRelaxationTightensCurvedFacesAndStaysOnTheSource) {
       // The flat source triangles: the relaxation's own guarantee (the smooth reconstruction,
       // smooth_surface_test.cpp, lifts points off them by up to the chordal sag).
       mo.smooth_alpha = 0;
-      builder::MappedSample m;
+      mesh::MappedSample m;
       std::string why;
       ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, nullptr, mo))
           << "relax " << relax << ": " << why;
       const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, nullptr);
       EXPECT_EQ(q.inverted, 0u);
       haus[relax] = q.hausdorff_max;
-      const builder::SurfaceIndex on(source.vertices, source.triangles);
+      const mesh::SurfaceIndex on(source.vertices, source.triangles);
       double off = 0;
       for (std::uint32_t v : canonical.triangles)
         off = std::max(off, on.distance(&m.vertices[3 * v]));
@@ -455,20 +455,20 @@ TEST(MeshMapper, SmoothReconstructionBringsTheBoundaryNearerCurvedFaces) {
   const std::vector<std::pair<std::vector<double>, std::vector<double>>> pairs{
       {{50, 40, 4, 100}, {70, 50, 6, 60}}};
   for (const auto& [xa, xc] : pairs) {
-    const builder::Sample source = bracket.at(xa), canonical = bracket.at(xc);
+    const mesh::Sample source = bracket.at(xa), canonical = bracket.at(xc);
     double haus[2], off[2];
     for (int smooth : {0, 1}) {
       mapping::MapOptions mo;
       mo.smooth_alpha = smooth ? 0.5 : 0.0;
-      builder::MappedSample m;
+      mesh::MappedSample m;
       std::string why;
       ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, nullptr, mo)) << why;
       const mapping::PairQuality q = mapping::measure_pair(source, canonical, m, nullptr);
       EXPECT_EQ(q.inverted, 0u);
       haus[smooth] = q.hausdorff_max;
-      const builder::SurfaceIndex on(source.vertices, source.triangles);
+      const mesh::SurfaceIndex on(source.vertices, source.triangles);
       // Where the maximum lies: a vertex of the mesh it names, that far from the other surface.
-      const builder::SurfaceIndex mapped(m.vertices, canonical.triangles);
+      const mesh::SurfaceIndex mapped(m.vertices, canonical.triangles);
       EXPECT_NEAR((q.hausdorff_at_source ? mapped : on).distance(q.hausdorff_at),
                   q.hausdorff_max * source.bbox_diagonal(), 1e-12 * source.bbox_diagonal());
       EXPECT_GE(q.hausdorff_tag, 0);
@@ -495,7 +495,7 @@ TEST(MeshMapper, SmoothReconstructionBringsTheBoundaryNearerCurvedFaces) {
 // -y and the bottom) leaves the top in the -y slot, between -x and +x the other way round. The
 // check rejects it and accepts the direct path.
 TEST(LayoutPaths, CyclicOrderCheckRejectsAPathOnTheWrongSideOfAnAnchor) {
-  builder::Sample oct;
+  mesh::Sample oct;
   oct.feasible = true;
   // 0:+x 1:-x 2:+y 3:-y 4:+z 5:-z
   oct.vertices = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
@@ -533,8 +533,8 @@ TEST(LayoutPaths, CyclicOrderCheckRejectsAPathOnTheWrongSideOfAnAnchor) {
 // with a few more vertices; a path over the hole on one side and under it on the other does not
 // (the patch keys cannot tell them apart, the disk maps would shear the face between them).
 TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
-  builder::Sample src, can;
-  auto add = [](builder::Sample& s, double x, double y) {
+  mesh::Sample src, can;
+  auto add = [](mesh::Sample& s, double x, double y) {
     s.vertices.insert(s.vertices.end(), {x, y, 0.0});
     return std::uint32_t(s.vertices.size() / 3 - 1);
   };
@@ -570,7 +570,7 @@ TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
 // 2.65 on a path of 8.6, more than a quarter of it. Such paths run alike only within a caller's
 // slack of at least that bend.
 TEST(LayoutPaths, SlackAcceptsAPathBentByTheMesh) {
-  builder::Sample src, can;
+  mesh::Sample src, can;
   src.vertices = {53.16, 0, 40, 56.45, -2.65, 40, 60, 0, 40};
   can.vertices = {55.27, 0, 40, 60, 0, 40};
   const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
@@ -589,7 +589,7 @@ TEST(MeshMapper, HarmonicInteriorIsExactForAffineMapsAndInversionsAreCounted) {
        {std::make_tuple("edge=2", std::vector<double>{41, 21, 6.2}, 1e-9),
         std::make_tuple("edge=1.2", std::vector<double>{60, 30, 6.2}, 1e-7)}) {
     const Model plate("plate", options);
-    const builder::Sample s = plate.at(x);
+    const mesh::Sample s = plate.at(x);
     std::vector<char> fixed(s.vertex_count(), 0);
     for (std::uint32_t v : s.triangles) fixed[v] = 1;
     ASSERT_NE(std::count(fixed.begin(), fixed.end(), 0), 0);
@@ -613,11 +613,11 @@ TEST(MeshMapper, HarmonicInteriorIsExactForAffineMapsAndInversionsAreCounted) {
 }
 
 TEST(MeshMapper, PathEdgeKeysNameTheCadEdge) {
-  builder::Path p;
+  mesh::Path p;
   p.a = {0, 3, 2, 7, 11};
   p.b = {1, 7, 3, 4, -1, 0};
   EXPECT_EQ(mapping::path_edge_key(p), (mapping::Id{1, 7, 3, 4}));
-  builder::Path q;
+  mesh::Path q;
   q.a = {0, 4, 1};
   q.b = {0, 3, 1};
   EXPECT_EQ(mapping::path_edge_key(q), (mapping::Id{2, 3, 0, 3, 1, 0, 4, 1}));
@@ -647,8 +647,8 @@ struct Shape {
   int n, k;  // angular and axial segments (multiples of 4: the edge points are mesh vertices)
 };
 
-builder::Sample make(const Shape& t) {
-  builder::Sample s;
+mesh::Sample make(const Shape& t) {
+  mesh::Sample s;
   s.feasible = true;
   const int R = 3;  // radial nodes: one interior layer
   auto index = [&](int i, int j, int k) {
@@ -731,7 +731,7 @@ builder::Sample make(const Shape& t) {
     for (const Ed& e : ed)
       if (e.v0 == v || e.v1 == v) vid[std::size_t(v)].push_back(e.id);
     // Copy-constructed IDs (GCC 12's -Wnonnull misfires on vector<long> assignment here).
-    builder::ControlPoint cp{vid[std::size_t(v)], {0, 0, 0}};
+    mesh::ControlPoint cp{vid[std::size_t(v)], {0, 0, 0}};
     const double* x = &s.vertices[3 * std::size_t(index(vx[v].i, 0, vx[v].k))];
     std::copy(x, x + 3, cp.position);
     s.points.push_back(cp);
@@ -749,13 +749,13 @@ builder::Sample make(const Shape& t) {
     ids[1].push_back(0);  // u = 1/4
     ids[3].push_back(1);  // u = 3/4
     for (int q = 1; q <= 3; ++q) {
-      builder::ControlPoint cp{ids[std::size_t(q)], {0, 0, 0}};
+      mesh::ControlPoint cp{ids[std::size_t(q)], {0, 0, 0}};
       const double* x = &s.vertices[3 * std::size_t(node(q * steps / 4))];
       std::copy(x, x + 3, cp.position);
       s.points.push_back(cp);
     }
     for (int q = 0; q < 4; ++q) {
-      builder::Path p{ids[std::size_t(q)], ids[std::size_t(q + 1)], {}};
+      mesh::Path p{ids[std::size_t(q)], ids[std::size_t(q + 1)], {}};
       for (int m = q * steps / 4; m <= (q + 1) * steps / 4; ++m) {
         const double* x = &s.vertices[3 * std::size_t(node(m))];
         p.polyline.insert(p.polyline.end(), x, x + 3);
@@ -767,7 +767,7 @@ builder::Sample make(const Shape& t) {
 }
 
 // The layout of a sample against itself (every CAD path common): its patches.
-void self_layout(const builder::Sample& s, std::vector<mapping::Patch>& patches) {
+void self_layout(const mesh::Sample& s, std::vector<mapping::Patch>& patches) {
   mapping::Surface surf;
   std::string why;
   ASSERT_TRUE(mapping::build_surface(s, surf, why)) << why;
@@ -783,7 +783,7 @@ void self_layout(const builder::Sample& s, std::vector<mapping::Patch>& patches)
 
 // Both walls of a tube {.., 16, 8} (tags 1 and 2) are one disk each in the sample's layout
 // against itself: cut open along their seams, the 9 seam vertices twice in the local numbering.
-void expect_walls_cut_open(const builder::Sample& s) {
+void expect_walls_cut_open(const mesh::Sample& s) {
   std::vector<mapping::Patch> patches;
   ASSERT_NO_FATAL_FAILURE(self_layout(s, patches));
   std::size_t walls = 0;
@@ -806,9 +806,9 @@ void expect_walls_cut_open(const builder::Sample& s) {
 // its radius, z within the height; cap vertices at z = 0 or the height).
 TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
   const tube::Shape src_shape{1.0, 2.0, 3.0, 16, 8}, can_shape{1.3, 2.4, 2.2, 24, 12};
-  const builder::Sample source = tube::make(src_shape), canonical = tube::make(can_shape);
-  ASSERT_EQ(builder::validate(source), "");
-  ASSERT_EQ(builder::validate(canonical), "");
+  const mesh::Sample source = tube::make(src_shape), canonical = tube::make(can_shape);
+  ASSERT_EQ(mesh::validate(source), "");
+  ASSERT_EQ(mesh::validate(canonical), "");
 
   // The layout: the outer wall (tag 1) is one disk patch cut open along its seam.
   std::vector<mapping::Patch> patches;
@@ -826,7 +826,7 @@ TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
     EXPECT_TRUE(p.holes.empty());
   }
 
-  builder::MappedSample m;
+  mesh::MappedSample m;
   mapping::MapStats stats;
   std::string why;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -883,9 +883,9 @@ TEST(MeshMapper, PeriodicFacesAreCutOpenAlongTheirSeam) {
 // mapping still succeeds.
 TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
   const tube::Shape shape{1.0, 2.0, 3.0, 16, 8};
-  builder::Sample source = tube::make(shape);
+  mesh::Sample source = tube::make(shape);
   std::size_t thinned = 0;
-  for (builder::Path& p : source.paths) {
+  for (mesh::Path& p : source.paths) {
     // Seam paths only: a seam's polyline runs straight along z (the circles do not).
     const std::vector<double>& pl = p.polyline;
     bool straight = true;
@@ -902,11 +902,11 @@ TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
     ++thinned;
   }
   ASSERT_GT(thinned, 0u);
-  ASSERT_EQ(builder::validate(source), "");
+  ASSERT_EQ(mesh::validate(source), "");
   // Each wall cut open along its seam, as with the whole polyline.
   ASSERT_NO_FATAL_FAILURE(tube::expect_walls_cut_open(source));
-  builder::MappedSample m;
-  const builder::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
+  mesh::MappedSample m;
+  const mesh::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
   std::string why;
   EXPECT_TRUE(mapping::map_sample(source, canonical, m, why)) << why;
 }
@@ -919,7 +919,7 @@ TEST(MeshMapper, SeamWhoseSegmentsAreSplitInTheMeshStillCutsItsFace) {
 // mapping (which drops the moved sample as an anchor) still succeeds.
 TEST(MeshMapper, SeamWhoseEdgeSampleIsNoMeshVertexStillCutsItsFace) {
   const tube::Shape shape{1.0, 2.0, 3.0, 16, 8};
-  builder::Sample source = tube::make(shape);
+  mesh::Sample source = tube::make(shape);
   auto straight = [](const std::vector<double>& pl) {
     bool z_only = true;
     for (std::size_t i = 3; i < pl.size(); i += 3)
@@ -927,9 +927,9 @@ TEST(MeshMapper, SeamWhoseEdgeSampleIsNoMeshVertexStillCutsItsFace) {
     return z_only;
   };
   std::size_t moved = 0;
-  for (builder::Path& a : source.paths) {
+  for (mesh::Path& a : source.paths) {
     if (!straight(a.polyline) || a.polyline[2] != 0) continue;  // a seam's first path
-    for (builder::Path& b : source.paths) {
+    for (mesh::Path& b : source.paths) {
       if (&a == &b || !straight(b.polyline) || b.a != a.b) continue;
       // The junction moves half a row up, towards b's next node.
       const std::vector<double> old(a.polyline.end() - 3, a.polyline.end());
@@ -938,17 +938,17 @@ TEST(MeshMapper, SeamWhoseEdgeSampleIsNoMeshVertexStillCutsItsFace) {
       const std::vector<double> j{old[0], old[1], old[2] + 0.5 * row};
       a.polyline.insert(a.polyline.end(), j.begin(), j.end());
       std::copy(j.begin(), j.end(), b.polyline.begin());
-      for (builder::ControlPoint& cp : source.points)
+      for (mesh::ControlPoint& cp : source.points)
         if (cp.id == a.b) std::copy(j.begin(), j.end(), cp.position);
       ++moved;
     }
   }
   ASSERT_EQ(moved, 2u);  // the outer and the inner seam
-  ASSERT_EQ(builder::validate(source), "");
+  ASSERT_EQ(mesh::validate(source), "");
   // Each wall cut open along its seam, as with the sample on a vertex.
   ASSERT_NO_FATAL_FAILURE(tube::expect_walls_cut_open(source));
-  builder::MappedSample m;
-  const builder::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
+  mesh::MappedSample m;
+  const mesh::Sample canonical = tube::make({1.3, 2.4, 2.2, 24, 12});
   std::string why;
   mapping::MapStats stats;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -964,10 +964,10 @@ TEST(MeshMapper, SeamWhoseEdgeSampleIsNoMeshVertexStillCutsItsFace) {
 TEST(LayoutCuts, UnsharedEdgeWhoseMeshVerticesLieOffItsPolylineIsNotCut) {
   const tube::Shape shape{1.0, 2.0, 3.0, 16, 8};
   for (const bool thin : {false, true}) {
-    builder::Sample s = tube::make(shape);
+    mesh::Sample s = tube::make(shape);
     std::set<mapping::Id> common = mapping::correspond(s, s).common_edges;
     std::size_t circle_paths = 0;
-    for (builder::Path& p : s.paths) {
+    for (mesh::Path& p : s.paths) {
       std::vector<double>& pl = p.polyline;
       bool top_outer = true;
       for (std::size_t i = 0; i < pl.size(); i += 3)
@@ -980,7 +980,7 @@ TEST(LayoutCuts, UnsharedEdgeWhoseMeshVerticesLieOffItsPolylineIsNotCut) {
       if (thin) pl = {pl[0], pl[1], pl[2], pl[6], pl[7], pl[8], pl[12], pl[13], pl[14]};
     }
     ASSERT_EQ(circle_paths, 4u);
-    ASSERT_EQ(builder::validate(s), "");
+    ASSERT_EQ(mesh::validate(s), "");
     mapping::Surface surf;
     std::string why;
     ASSERT_TRUE(mapping::build_surface(s, surf, why)) << why;
@@ -1080,7 +1080,7 @@ struct Hole {
   double x0, y0, x1, y1;
 };
 
-builder::Sample plate(double X, double Y, double Z, double h, const std::vector<Hole>& holes) {
+mesh::Sample plate(double X, double Y, double Z, double h, const std::vector<Hole>& holes) {
   const int nx = int(std::lround(X / h)), ny = int(std::lround(Y / h)),
             nz = int(std::lround(Z / h));
   auto in_hole = [&](double x, double y) {
@@ -1118,7 +1118,7 @@ builder::Sample plate(double X, double Y, double Z, double h, const std::vector<
       }
   // Compact (vertices inside holes are in no tet).
   std::vector<std::int64_t> index(all.size() / 3, -1);
-  builder::Sample s;
+  mesh::Sample s;
   s.feasible = true;
   for (std::uint32_t& v : tets) {
     if (index[v] < 0) {
@@ -1172,7 +1172,7 @@ builder::Sample plate(double X, double Y, double Z, double h, const std::vector<
     s.triangle_tags.push_back(tag);
   }
   auto point = [&](std::int64_t id, double x, double y, double z) {
-    builder::ControlPoint p;
+    mesh::ControlPoint p;
     p.id = {0, id};
     p.position[0] = x;
     p.position[1] = y;
@@ -1194,9 +1194,9 @@ builder::Sample plate(double X, double Y, double Z, double h, const std::vector<
 // vertex and edge IDs differ between the two (their adjacent entities differ), so no control point
 // on a rim matches: the hub's switch from round to obround bolt holes in miniature. Only the
 // plate's 8 corners are common.
-builder::Sample plate_with_rims(double X, double Y, double Z, double h,
+mesh::Sample plate_with_rims(double X, double Y, double Z, double h,
                                 const std::vector<Hole>& holes, bool split_walls) {
-  builder::Sample s = plate(X, Y, Z, h, holes);
+  mesh::Sample s = plate(X, Y, Z, h, holes);
   s.points.resize(8);  // the hole corners of `plate` are gone
   for (std::size_t t = 0; t < s.triangle_count(); ++t) {
     std::int32_t& tag = s.triangle_tags[t];
@@ -1224,7 +1224,7 @@ builder::Sample plate_with_rims(double X, double Y, double Z, double h,
             0, (split_walls ? 4000 : 3000) + 8 * std::int64_t(k) + 4 * top + (split_walls ? c : 0)};
       };
       for (int c = 0; c < (split_walls ? 4 : 1); ++c) {
-        builder::ControlPoint p;
+        mesh::ControlPoint p;
         p.id = id(c);
         p.position[0] = corner[c][0];
         p.position[1] = corner[c][1];
@@ -1232,7 +1232,7 @@ builder::Sample plate_with_rims(double X, double Y, double Z, double h,
         s.points.push_back(p);
       }
       // The rim along the grid, corner to corner; one path per edge.
-      builder::Path path;
+      mesh::Path path;
       for (int c = 0; c < 4; ++c) {
         const double* a = corner[c];
         const double* b = corner[(c + 1) % 4];
@@ -1247,11 +1247,11 @@ builder::Sample plate_with_rims(double X, double Y, double Z, double h,
         if (split_walls || c == 3) {
           path.b = id((c + 1) % 4);
           s.paths.push_back(path);
-          path = builder::Path();
+          path = mesh::Path();
         }
         // The vertical edges between the four wall faces, once per corner.
         if (split_walls && top) {
-          builder::Path v;
+          mesh::Path v;
           v.a = {0, 4000 + 8 * std::int64_t(k) + c};
           v.b = id(c);
           const int nz = int(std::lround(Z / h));
@@ -1267,7 +1267,7 @@ builder::Sample plate_with_rims(double X, double Y, double Z, double h,
 // Calls f(tag, x) for each corner of each canonical boundary triangle with its mapped position
 // (a vertex once per triangle it is a corner of): the checks that a face keeps its geometry.
 template <class F>
-void for_each_tagged_corner(const builder::Sample& canonical, const builder::MappedSample& m, F f) {
+void for_each_tagged_corner(const mesh::Sample& canonical, const mesh::MappedSample& m, F f) {
   for (std::size_t t = 0; t < canonical.triangle_count(); ++t)
     for (int c = 0; c < 3; ++c)
       f(canonical.triangle_tags[t],
@@ -1276,7 +1276,7 @@ void for_each_tagged_corner(const builder::Sample& canonical, const builder::Map
 
 // Each mapped boundary vertex of the outer faces on its own face's plane (the faces keep their
 // tags through the combinatorics): top z = Z, bottom z = 0, walls x = 0 and x = X.
-void expect_on_outer_planes(const builder::Sample& canonical, const builder::MappedSample& m,
+void expect_on_outer_planes(const mesh::Sample& canonical, const mesh::MappedSample& m,
                             double X, double Z) {
   for_each_tagged_corner(canonical, m, [X, Z](std::int32_t tag, const double* x) {
     if (tag == 1) {
@@ -1304,11 +1304,11 @@ void expect_on_outer_planes(const builder::Sample& canonical, const builder::Map
 // every tet valid.
 TEST(MeshMapper, FaceWithSeveralHolesIsSlitIntoOneDisk) {
   const std::vector<voxel::Hole> holes = {{2, 2, 4, 4}, {6, 4, 8, 6}, {9, 1, 10, 3}};
-  const builder::Sample source = voxel::plate(12, 8, 1, 1, holes);
-  const builder::Sample canonical = voxel::plate(12, 8, 1, 0.5, holes);
-  ASSERT_EQ(builder::validate(source), "");
-  ASSERT_EQ(builder::validate(canonical), "");
-  builder::MappedSample m;
+  const mesh::Sample source = voxel::plate(12, 8, 1, 1, holes);
+  const mesh::Sample canonical = voxel::plate(12, 8, 1, 0.5, holes);
+  ASSERT_EQ(mesh::validate(source), "");
+  ASSERT_EQ(mesh::validate(canonical), "");
+  mesh::MappedSample m;
   std::string why;
   mapping::MapStats stats;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -1333,11 +1333,11 @@ TEST(MeshMapper, FaceWithSeveralHolesIsSlitIntoOneDisk) {
 // stay exactly on their planes, wall vertices on the walls' planes.
 TEST(MeshMapper, HoleWallsOfOneSideOnlyAreCutOffInsteadOfMakingHandles) {
   const std::vector<voxel::Hole> holes = {{2, 2, 4, 4}, {6, 4, 8, 6}, {9, 1, 10, 3}};
-  const builder::Sample source = voxel::plate_with_rims(12, 8, 1, 1, holes, false);
-  const builder::Sample canonical = voxel::plate_with_rims(12, 8, 1, 0.5, holes, true);
-  ASSERT_EQ(builder::validate(source), "");
-  ASSERT_EQ(builder::validate(canonical), "");
-  builder::MappedSample m;
+  const mesh::Sample source = voxel::plate_with_rims(12, 8, 1, 1, holes, false);
+  const mesh::Sample canonical = voxel::plate_with_rims(12, 8, 1, 0.5, holes, true);
+  ASSERT_EQ(mesh::validate(source), "");
+  ASSERT_EQ(mesh::validate(canonical), "");
+  mesh::MappedSample m;
   std::string why;
   mapping::MapStats stats;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -1384,7 +1384,7 @@ TEST(MeshMapper, HoleWallsOfOneSideOnlyAreCutOffInsteadOfMakingHandles) {
 // edge path is longer by the grid's zigzag; a zigzag chain measured along the geodesic gets
 // increasing arc lengths from 0 to the geodesic's length, its corners at their projections.
 TEST(Geodesic, CorridorGeodesicOfAFlatFaceIsItsStraightSegment) {
-  const builder::Sample plate = voxel::plate(6, 4, 1, 1, {});
+  const mesh::Sample plate = voxel::plate(6, 4, 1, 1, {});
   mapping::Surface surf;
   std::string why;
   ASSERT_TRUE(mapping::build_surface(plate, surf, why)) << why;
@@ -1429,7 +1429,7 @@ TEST(Geodesic, CorridorGeodesicOfAFlatFaceIsItsStraightSegment) {
 // each crowd onto one point of the segment; such a path keeps its edges' lengths. The straight
 // edge path between the same ends, its own geodesic, is measured along it.
 TEST(Geodesic, PathThatDetoursKeepsItsEdgeLengths) {
-  const builder::Sample plate = voxel::plate(6, 4, 1, 1, {});
+  const mesh::Sample plate = voxel::plate(6, 4, 1, 1, {});
   mapping::Surface surf;
   std::string why;
   ASSERT_TRUE(mapping::build_surface(plate, surf, why)) << why;
@@ -1451,7 +1451,7 @@ TEST(Geodesic, PathThatDetoursKeepsItsEdgeLengths) {
   const double a[3] = {0, 1, 1}, b[3] = {6, 1, 1};
   anchors.push_back(a);
   anchors.push_back(b);
-  for (const builder::ControlPoint& p : plate.points) anchors.push_back(p.position);
+  for (const mesh::ControlPoint& p : plate.points) anchors.push_back(p.position);
   for (const bool detour : {true, false}) {
     SCOPED_TRACE(detour ? "U-shaped path" : "straight path");
     const std::vector<std::uint32_t> chain =
@@ -1592,7 +1592,7 @@ TEST(PathRelease, NearestPointOnATriangleInEachRegion) {
   };
   for (const Case& k : cases) {
     double w[3];
-    builder::closest_point_weights(k.p, a, b, c, w);
+    mesh::closest_point_weights(k.p, a, b, c, w);
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(w[i], k.w[i], 1e-12) << k.p[0] << "," << k.p[1];
   }
 }
@@ -1602,7 +1602,7 @@ TEST(PathRelease, NearestPointOnATriangleInEachRegion) {
 // towards the canonical arrangement (here the identity), every position on the source plane and
 // inside it, `where` and the positions consistent.
 TEST(PathRelease, ShearAlongATracedPathRelaxesOnTheSourceSurface) {
-  builder::Sample grid;
+  mesh::Sample grid;
   const int n = 9;
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i)
@@ -1637,7 +1637,7 @@ TEST(PathRelease, ShearAlongATracedPathRelaxesOnTheSourceSurface) {
     for (std::size_t f = 0; f < grid.triangle_count(); ++f) {
       const std::uint32_t* t = &grid.triangles[3 * f];
       double w[3], p[3];
-      builder::closest_point_weights(&x[3 * v], &grid.vertices[3 * t[0]], &grid.vertices[3 * t[1]],
+      mesh::closest_point_weights(&x[3 * v], &grid.vertices[3 * t[0]], &grid.vertices[3 * t[1]],
                                      &grid.vertices[3 * t[2]], w);
       mapping::SurfacePoint sp;
       for (int k = 0; k < 3; ++k) sp.v[k] = t[k], sp.w[k] = w[k];
@@ -1672,11 +1672,11 @@ TEST(PathRelease, ShearAlongATracedPathRelaxesOnTheSourceSurface) {
 // untangling (foldover_free.h) the tets; the truth is the source solid itself, which the mapped
 // surface must match exactly (flat faces).
 TEST(MeshMapper, FlatFaceWhoseHoleMovesFarIsUnfoldedInItsPlane) {
-  const builder::Sample source = voxel::plate(12, 8, 1, 1, {{1, 1, 2, 2}});
-  const builder::Sample canonical = voxel::plate(12, 8, 1, 0.5, {{8, 5, 10, 7}});
-  ASSERT_EQ(builder::validate(source), "");
-  ASSERT_EQ(builder::validate(canonical), "");
-  builder::MappedSample m;
+  const mesh::Sample source = voxel::plate(12, 8, 1, 1, {{1, 1, 2, 2}});
+  const mesh::Sample canonical = voxel::plate(12, 8, 1, 0.5, {{8, 5, 10, 7}});
+  ASSERT_EQ(mesh::validate(source), "");
+  ASSERT_EQ(mesh::validate(canonical), "");
+  mesh::MappedSample m;
   std::string why;
   mapping::MapStats stats;
   ASSERT_TRUE(mapping::map_sample(source, canonical, m, why, &stats)) << why;
@@ -1689,7 +1689,7 @@ TEST(MeshMapper, FlatFaceWhoseHoleMovesFarIsUnfoldedInItsPlane) {
   mapping::MapOptions without;
   without.planar_patches = false;
   without.foldover_free = false;
-  builder::MappedSample refused;
+  mesh::MappedSample refused;
   why.clear();
   EXPECT_FALSE(mapping::map_sample(source, canonical, refused, why, nullptr, without));
   EXPECT_NE(why.find("would invert or flatten"), std::string::npos) << why;

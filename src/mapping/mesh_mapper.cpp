@@ -13,7 +13,7 @@
 
 #include <Eigen/Dense>
 
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/field_transfer.h"
@@ -92,7 +92,7 @@ SurfacePoint disk_point(const DiskMap& sd, const DiskLocator& locator, const dou
   return p;
 }
 
-void position_of(const builder::Sample& s, const SurfacePoint& p, double* x) {
+void position_of(const mesh::Sample& s, const SurfacePoint& p, double* x) {
   for (int a = 0; a < 3; ++a) {
     x[a] = 0;
     for (int k = 0; k < 3; ++k)
@@ -113,7 +113,7 @@ void position_of(const builder::Sample& s, const SurfacePoint& p, double* x) {
 // fixed. Where both samples are flat and equal the canonical positions are already the fixed
 // point (mean-value weights reproduce linear functions), so nothing moves. Jacobi sweeps in a
 // fixed order: deterministic.
-void relax_in_patch(const builder::Sample& source, const builder::Sample& canonical,
+void relax_in_patch(const mesh::Sample& source, const mesh::Sample& canonical,
                     const DiskMap& cd, const DiskMap& sd, const DiskLocator& locator,
                     const std::vector<std::size_t>& inner, const std::vector<SurfacePoint>& where,
                     int iterations, std::vector<double>& uv) {
@@ -205,7 +205,7 @@ void relax_in_patch(const builder::Sample& source, const builder::Sample& canoni
 // shapes as reference; loop vertices fixed) and are lifted back onto the source triangles
 // through the chart. Writes each inner local vertex's surface point and source-disk
 // coordinates; false where no such chart exists.
-bool planar_placement(const builder::Sample& source, const builder::Sample& canonical,
+bool planar_placement(const mesh::Sample& source, const mesh::Sample& canonical,
                       const DiskMap& cd, const DiskMap& sd, const std::vector<std::size_t>& inner,
                       std::vector<SurfacePoint>& at, std::vector<double>& uv) {
   const std::size_t ns = sd.vertices.size(), n = cd.vertices.size();
@@ -342,7 +342,7 @@ std::size_t untangle(const std::vector<std::uint32_t>& tets, const std::vector<c
   return inverted.size();
 }
 
-bool same_field_layout(const builder::Sample& a, const builder::Sample& b) {
+bool same_field_layout(const mesh::Sample& a, const mesh::Sample& b) {
   if (a.fields.size() != b.fields.size()) return false;
   for (std::size_t i = 0; i < a.fields.size(); ++i)
     if (a.fields[i].name != b.fields[i].name || a.fields[i].location != b.fields[i].location ||
@@ -353,8 +353,8 @@ bool same_field_layout(const builder::Sample& a, const builder::Sample& b) {
 
 }  // namespace
 
-bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
-                builder::MappedSample& out, std::string& why, MapStats* stats,
+bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical,
+                mesh::MappedSample& out, std::string& why, MapStats* stats,
                 const MapOptions& options) {
   why.clear();
   if (!source.feasible || !canonical.feasible) {
@@ -364,7 +364,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   // Indices, sizes and orientation are relied on below: a malformed sample is refused by name.
   for (const auto& [s, name] :
        {std::make_pair(&source, "source"), std::make_pair(&canonical, "canonical")}) {
-    const std::string problem = builder::validate(*s);
+    const std::string problem = mesh::validate(*s);
     if (!problem.empty()) {
       why = std::string("mapping: the ") + name + " sample is invalid: " + problem;
       return false;
@@ -481,7 +481,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   // such a cut makes carry no anchor when their CAD edges are new on both sides; the rounds
   // below add one to each (d).
   {
-    auto tags_of = [](const builder::Sample& x) {
+    auto tags_of = [](const mesh::Sample& x) {
       std::vector<std::int32_t> t(x.triangle_tags);
       std::sort(t.begin(), t.end());
       t.erase(std::unique(t.begin(), t.end()), t.end());
@@ -643,7 +643,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
       // hole the edge passes stays on the side it is on there: the first whose patches agree.
       const std::vector<char>& own_before = e.in_source ? src_cuts : can_cuts;
       const std::vector<char>& own_after = e.in_source ? next.src_cuts : next.can_cuts;
-      const builder::Sample& own = e.in_source ? source : canonical;
+      const mesh::Sample& own = e.in_source ? source : canonical;
       std::set<std::int32_t> faces;
       for (std::size_t h = 0; h < own_after.size(); ++h)
         if (own_after[h] && !own_before[h]) faces.insert(own.triangle_tags[h / 3]);
@@ -1651,7 +1651,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     auto gap = [&](const std::vector<SurfacePoint>& at) {
       const std::vector<double> P = positions(at);
       const std::vector<std::uint32_t> F(cd.triangles.begin(), cd.triangles.end());
-      const builder::SurfaceIndex index(P, F);
+      const mesh::SurfaceIndex index(P, F);
       double d = 0;
       for (std::uint32_t v : sd.vertices)
         d = std::max(d, index.distance(source.vertices.data() + 3 * std::size_t(v)));
@@ -1807,7 +1807,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
     }
     q = tet_quality(out.vertices, canonical.tets);
     if (q.inverted > 0) {
-      // The same volume threshold as tet_quality (builder::validate's rule), on the mapped mesh.
+      // The same volume threshold as tet_quality (mesh::validate's rule), on the mapped mesh.
       untangle(canonical.tets, on_surface, min_six_volume(out.vertices), out.vertices);
       q = tet_quality(out.vertices, canonical.tets);
     }
@@ -2021,7 +2021,7 @@ bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
   }
   // The whole mapping again with other options; its result replaces this one when it succeeds.
   auto retry = [&](const MapOptions& other) {
-    builder::MappedSample other_out;
+    mesh::MappedSample other_out;
     std::string other_why;
     MapStats other_stats;
     if (!map_sample(source, canonical, other_out, other_why, &other_stats, other)) return false;

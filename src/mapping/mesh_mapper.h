@@ -15,8 +15,8 @@
 #include <cstddef>
 #include <string>
 
-#include "builder/mapping_hook.h"
-#include "builder/sample.h"
+#include "mesh/mapper.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -89,14 +89,14 @@ struct MapOptions {
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
 /// allow it (no common control points, a patch that is not a disk, patches without
 /// counterpart) or when the result would contain inverted tets. `stats` may be null.
-bool map_sample(const builder::Sample& source, const builder::Sample& canonical,
-                builder::MappedSample& out, std::string& why, MapStats* stats = nullptr,
+bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical,
+                mesh::MappedSample& out, std::string& why, MapStats* stats = nullptr,
                 const MapOptions& options = MapOptions());
 
-class MeshMapper final : public builder::Mapper {
+class MeshMapper final : public mesh::Mapper {
  public:
-  bool map(const builder::Sample& source, const builder::Sample& canonical,
-           builder::MappedSample& out, std::string& why) const override {
+  bool map(const mesh::Sample& source, const mesh::Sample& canonical,
+           mesh::MappedSample& out, std::string& why) const override {
     return map_sample(source, canonical, out, why, nullptr);
   }
   // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface. v3: faces

@@ -4,9 +4,9 @@
 
 namespace cadinterp::mapping {
 
-NeighbourBridge::NeighbourBridge(const builder::Sample& neighbour,
+NeighbourBridge::NeighbourBridge(const mesh::Sample& neighbour,
                                  const std::vector<double>& shared_in_neighbour,
-                                 const builder::Sample& element,
+                                 const mesh::Sample& element,
                                  const std::vector<double>& shared_in_element)
     : neighbour_(neighbour), element_(element) {
   if (neighbour.tet_count() == 0 || element.tet_count() == 0) {
@@ -19,7 +19,7 @@ NeighbourBridge::NeighbourBridge(const builder::Sample& neighbour,
     return;
   }
   // The shared sample in the neighbour's combinatorics, as a mesh to locate points in.
-  builder::Sample bridge;
+  mesh::Sample bridge;
   bridge.vertices = shared_in_neighbour;
   bridge.tets = neighbour.tets;
   const TetLocator locator(bridge);
@@ -46,7 +46,7 @@ NeighbourBridge::NeighbourBridge(const builder::Sample& neighbour,
   }
 }
 
-bool NeighbourBridge::apply(const builder::MappedSample& in, builder::MappedSample& out,
+bool NeighbourBridge::apply(const mesh::MappedSample& in, mesh::MappedSample& out,
                             std::string& why) const {
   if (!ok()) {
     why = why_;
@@ -70,7 +70,7 @@ bool NeighbourBridge::apply(const builder::MappedSample& in, builder::MappedSamp
   blend(in.vertices, 3, out.vertices);
   out.fields.assign(in.fields.size(), {});
   for (std::size_t f = 0; f < in.fields.size(); ++f) {
-    const builder::Field& desc = neighbour_.fields[f];
+    const mesh::Field& desc = neighbour_.fields[f];
     const auto C = static_cast<std::size_t>(desc.components);
     if (desc.location == 0) {
       blend(in.fields[f], C, out.fields[f]);

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "builder/mapping_hook.h"
-#include "builder/sample.h"
+#include "mesh/mapper.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -21,19 +21,19 @@ class NeighbourBridge {
   /// `neighbour` is l''s canonical mesh (tets) with `shared_in_neighbour` the vertices of
   /// p_s^{l'}; `element` is l's canonical mesh (tets) with `shared_in_element` the vertices of
   /// p_s^l. Fails (ok() false, why()) when a mesh is empty or sizes disagree.
-  NeighbourBridge(const builder::Sample& neighbour, const std::vector<double>& shared_in_neighbour,
-                  const builder::Sample& element, const std::vector<double>& shared_in_element);
+  NeighbourBridge(const mesh::Sample& neighbour, const std::vector<double>& shared_in_neighbour,
+                  const mesh::Sample& element, const std::vector<double>& shared_in_element);
   bool ok() const { return why_.empty(); }
   const std::string& why() const { return why_; }
 
   /// p_k^l from p_k^{l'} (vertices and fields in l''s combinatorics; field layouts as
   /// `neighbour`'s fields). False with `why` when the bridge is not ok or sizes disagree.
-  bool apply(const builder::MappedSample& in_neighbour, builder::MappedSample& out,
+  bool apply(const mesh::MappedSample& in_neighbour, mesh::MappedSample& out,
              std::string& why) const;
 
  private:
-  const builder::Sample& neighbour_;
-  const builder::Sample& element_;
+  const mesh::Sample& neighbour_;
+  const mesh::Sample& element_;
   std::vector<std::uint32_t> vertex_tet_;  // per element vertex: the neighbour tet
   std::vector<double> vertex_w_;           // 4 weights per element vertex
   std::vector<std::uint32_t> tet_tet_;     // per element tet: the neighbour tet at its centroid

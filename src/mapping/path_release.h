@@ -12,7 +12,7 @@
 #include <functional>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 #include "mapping/surface.h"
 
 namespace cadinterp::mapping {
@@ -21,12 +21,12 @@ namespace cadinterp::mapping {
 /// on no CAD edge, no anchor): each moves by 0.8 of the way towards the canonical mean-value
 /// average (Floater's weights, from the canonical's surface triangles) of its surface
 /// neighbours' mapped positions `x`, and that point is projected to the nearest point of the
-/// source surface (builder::closest_point_weights) among the triangles within 3 rings of its
+/// source surface (mesh::closest_point_weights) among the triangles within 3 rings of its
 /// current ones (`where`), in the same B-rep face (triangle tag). `where` and `x` are updated for
 /// the movable vertices, `x` through `place` (the caller's position of a surface point, e.g. on a
 /// smooth reconstruction).
-void release_traced_paths(const builder::Sample& source, const Surface& source_surface,
-                          const builder::Sample& canonical,
+void release_traced_paths(const mesh::Sample& source, const Surface& source_surface,
+                          const mesh::Sample& canonical,
                           const std::vector<std::uint32_t>& movable, int sweeps,
                           std::vector<SurfacePoint>& where,
                           const std::function<void(const SurfacePoint&, double*)>& place,

@@ -32,7 +32,7 @@ constexpr double kSmoothCosine = 0.82;  // about 35 degrees
 
 }  // namespace
 
-SmoothSurface::SmoothSurface(const builder::Sample& s, double alpha) : s_(&s), alpha_(alpha) {
+SmoothSurface::SmoothSurface(const mesh::Sample& s, double alpha) : s_(&s), alpha_(alpha) {
   normals_.resize(s.vertex_count());
   const std::size_t F = s.triangle_count();
   for (std::size_t f = 0; f < F; ++f) {

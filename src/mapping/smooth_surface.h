@@ -23,7 +23,7 @@
 #include <utility>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 #include "mapping/surface.h"
 
 namespace cadinterp::mapping {
@@ -34,7 +34,7 @@ class SmoothSurface {
   /// through two vertices with exact normals to second order (the mid-chord lift is
   /// alpha R sin^2(t) cos(t) against the sag R (1 - cos(t)), t half the arc's angle); Boubekeur
   /// and Alexa's 3/4 overshoots it by half.
-  explicit SmoothSurface(const builder::Sample& s, double alpha = 0.5);
+  explicit SmoothSurface(const mesh::Sample& s, double alpha = 0.5);
 
   /// The position of `p`: a point of a source triangle (three distinct vertices of one
   /// boundary triangle) on that triangle's Phong patch; a point of a boundary edge (two
@@ -44,7 +44,7 @@ class SmoothSurface {
 
  private:
   using Vec = std::array<double, 3>;
-  const builder::Sample* s_;
+  const mesh::Sample* s_;
   double alpha_;
   // Per vertex, its normal for each face tag around it (angle-weighted).
   std::vector<std::vector<std::pair<std::int32_t, Vec>>> normals_;

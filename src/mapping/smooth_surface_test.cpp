@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 #include "mapping/smooth_surface.h"
 
 namespace {
@@ -25,7 +25,7 @@ constexpr double kR = 1.0;
 struct Section {
   int n;
   double step;  // column angle
-  builder::Sample s;
+  mesh::Sample s;
   explicit Section(int columns) : n(columns), step(2 * kPi / 3 / columns) {
     for (int i = 0; i <= n; ++i)
       for (int j = 0; j <= 1; ++j)
@@ -65,7 +65,7 @@ struct Section {
   }
 };
 
-std::array<double, 3> flat(const builder::Sample& s, const mapping::SurfacePoint& p) {
+std::array<double, 3> flat(const mesh::Sample& s, const mapping::SurfacePoint& p) {
   std::array<double, 3> x{0, 0, 0};
   for (int k = 0; k < 3; ++k)
     for (std::size_t a = 0; a < 3; ++a) x[a] += p.w[k] * s.vertices[3 * p.v[k] + a];
@@ -106,7 +106,7 @@ TEST(SmoothSurface, CapTetsOnACurvedFaceKeepTheirOrientation) {
     const double v_true = six_volume(truth);
     ASSERT_GT(std::fabs(v_true), 0.0);
     const double sign = v_true > 0 ? 1 : -1;
-    // The mapper's flatness rule (builder::validate): 6 V <= 1e-12 diag^3.
+    // The mapper's flatness rule (mesh::validate): 6 V <= 1e-12 diag^3.
     EXPECT_LE(sign * six_volume(chord), 1e-12 * std::fabs(v_true)) << columns;
     const double v_smooth = sign * six_volume(smoothed);
     EXPECT_GT(v_smooth, 0.0) << columns;

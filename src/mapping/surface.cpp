@@ -5,7 +5,7 @@
 
 namespace cadinterp::mapping {
 
-bool build_surface(const builder::Sample& s, Surface& out, std::string& why) {
+bool build_surface(const mesh::Sample& s, Surface& out, std::string& why) {
   out.sample = &s;
   const int H = static_cast<int>(3 * s.triangle_count());
   out.twin.assign(static_cast<std::size_t>(H), -1);

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -20,7 +20,7 @@ struct SurfacePoint {
 
 /// Half-edge h = 3 f + k runs from triangles[3f+k] to triangles[3f+(k+1)%3].
 struct Surface {
-  const builder::Sample* sample = nullptr;
+  const mesh::Sample* sample = nullptr;
   std::vector<int> twin;  ///< per half-edge: the opposite half-edge, -1 on an open border
   /// Vertex v's outgoing half-edges are out_edges[out_start[v] .. out_start[v + 1]).
   std::vector<int> out_start, out_edges;
@@ -43,7 +43,7 @@ struct Surface {
 /// Builds the adjacency. Fails (returns false, `why`) on an edge shared by more than two
 /// triangles or used twice in the same direction: the boundary of a tet mesh is a closed
 /// oriented 2-manifold, and patch tracing relies on it.
-bool build_surface(const builder::Sample& s, Surface& out, std::string& why);
+bool build_surface(const mesh::Sample& s, Surface& out, std::string& why);
 
 /// Euclidean distance of two points (3 doubles each).
 double distance(const double* a, const double* b);

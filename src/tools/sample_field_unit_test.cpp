@@ -7,13 +7,13 @@
 #include <cstring>
 #include <vector>
 
-#include "builder/host_call.h"
-#include "builder/sample.h"
+#include "mesh/host_call.h"
+#include "mesh/sample.h"
 #include "cadinterp/cadinterp_builder.h"
 
 namespace {
 
-using cadinterp::builder::Sample;
+using cadinterp::mesh::Sample;
 
 // A one-tet sample with a per-vertex scalar and a per-vertex vector field, as a host writes it.
 cadinterp_sample one_tet_sample() {
@@ -54,22 +54,22 @@ TEST(SampleFieldUnit, SetsTheUnitOfANamedField) {
   EXPECT_EQ(cadinterp_sample_set_field_unit(nullptr, "displacement", "mm"),
             CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(s.sample.fields[1].unit, "m");
-  EXPECT_EQ(cadinterp::builder::validate(s.sample), "");
+  EXPECT_EQ(cadinterp::mesh::validate(s.sample), "");
 }
 
 TEST(SampleFieldUnit, StoreBytesKeepUnitsAndReadVersion1) {
   cadinterp_sample s = one_tet_sample();
   ASSERT_EQ(cadinterp_sample_set_field_unit(&s, "displacement", "mm"), CADINTERP_OK);
-  const std::vector<std::uint8_t> bytes = cadinterp::builder::serialize(s.sample);
-  const Sample back = cadinterp::builder::deserialize(bytes.data(), bytes.size());
+  const std::vector<std::uint8_t> bytes = cadinterp::mesh::serialize(s.sample);
+  const Sample back = cadinterp::mesh::deserialize(bytes.data(), bytes.size());
   ASSERT_EQ(back.fields.size(), 2u);
   EXPECT_EQ(back.fields[0].unit, "");
   EXPECT_EQ(back.fields[1].unit, "mm");
   EXPECT_EQ(back.fields[1].values, s.sample.fields[1].values);
-  EXPECT_EQ(cadinterp::builder::serialize(back), bytes);
+  EXPECT_EQ(cadinterp::mesh::serialize(back), bytes);
   // Every prefix is refused (the units are part of a version 2 sample).
   for (std::size_t n = 0; n < bytes.size(); ++n)
-    EXPECT_THROW(cadinterp::builder::deserialize(bytes.data(), n), std::runtime_error) << n;
+    EXPECT_THROW(cadinterp::mesh::deserialize(bytes.data(), n), std::runtime_error) << n;
 
   // Version 1 (a store written before units): the same bytes without the trailing unit strings
   // (one u64 length and its text per field), version word 1. Read with no units.
@@ -78,7 +78,7 @@ TEST(SampleFieldUnit, StoreBytesKeepUnitsAndReadVersion1) {
   v1.resize(v1.size() - units);
   const std::uint32_t one = 1;
   std::memcpy(v1.data() + 4, &one, 4);
-  const Sample old = cadinterp::builder::deserialize(v1.data(), v1.size());
+  const Sample old = cadinterp::mesh::deserialize(v1.data(), v1.size());
   ASSERT_EQ(old.fields.size(), 2u);
   EXPECT_EQ(old.fields[1].unit, "");
   EXPECT_EQ(old.fields[1].values, s.sample.fields[1].values);
@@ -87,7 +87,7 @@ TEST(SampleFieldUnit, StoreBytesKeepUnitsAndReadVersion1) {
   std::vector<std::uint8_t> v3 = bytes;
   const std::uint32_t three = 3;
   std::memcpy(v3.data() + 4, &three, 4);
-  EXPECT_THROW(cadinterp::builder::deserialize(v3.data(), v3.size()), std::runtime_error);
+  EXPECT_THROW(cadinterp::mesh::deserialize(v3.data(), v3.size()), std::runtime_error);
 }
 
 }  // namespace

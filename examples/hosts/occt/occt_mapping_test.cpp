@@ -10,15 +10,15 @@
 #include <string>
 #include <vector>
 
-#include "builder/host_call.h"
-#include "builder/sample.h"
+#include "mesh/host_call.h"
+#include "mesh/sample.h"
 #include "mapping/field_transfer.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
 #include "occt_host.h"
 
 namespace occt = cadinterp::occt;
-namespace builder = cadinterp::builder;
+namespace mesh = cadinterp::mesh;
 namespace mapping = cadinterp::mapping;
 
 namespace {
@@ -30,12 +30,12 @@ void expect_maps(const std::string& model_name, const std::string& options,
                  const std::vector<double>& source, const std::vector<double>& canonical,
                  double hausdorff) {
   occt::Model model(model_name, options);
-  const builder::Host host(*model.host());
-  const builder::Sample a = host.evaluate(source.data()), c = host.evaluate(canonical.data());
+  const mesh::Host host(*model.host());
+  const mesh::Sample a = host.evaluate(source.data()), c = host.evaluate(canonical.data());
   ASSERT_TRUE(a.feasible) << a.message;
   ASSERT_TRUE(c.feasible) << c.message;
-  EXPECT_FALSE(builder::same_combinatorics(a, c));
-  builder::MappedSample m;
+  EXPECT_FALSE(mesh::same_combinatorics(a, c));
+  mesh::MappedSample m;
   mapping::MapStats stats;
   std::string why;
   ASSERT_TRUE(mapping::map_sample(a, c, m, why, &stats)) << why;
@@ -139,18 +139,18 @@ TEST(OcctMapping, MountHoleSplitByPathsToBothSidesOfItsRim) {
 // load would leave a difference of the whole range, a lost fixture no solution.
 TEST(OcctMapping, FieldsCarriedAgreeWithTheHostsFemOnTheMappedMesh) {
   occt::Model model("wrench", "");
-  const builder::Host host(*model.host());
+  const mesh::Host host(*model.host());
   const std::vector<double> xa{17.8, 122.9, 6.2, 23.4}, xc{15.8, 107.9, 8.9, 8.4};
-  const builder::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
+  const mesh::Sample a = host.evaluate(xa.data()), c = host.evaluate(xc.data());
   ASSERT_TRUE(a.feasible) << a.message;
   ASSERT_TRUE(c.feasible) << c.message;
-  builder::MappedSample m;
+  mesh::MappedSample m;
   std::string why;
   ASSERT_TRUE(mapping::map_sample(a, c, m, why)) << why;
-  builder::Sample mesh;
+  mesh::Sample mesh;
   ASSERT_TRUE(mapping::mesh_for_simulation(a, c, m.vertices, mesh, why)) << why;
   const int regenerations = model.stage_times().regenerations;
-  const builder::Sample fem = host.simulate(xa.data(), mesh);
+  const mesh::Sample fem = host.simulate(xa.data(), mesh);
   ASSERT_TRUE(fem.feasible) << fem.message;
   EXPECT_EQ(model.stage_times().regenerations, regenerations);  // the regions at xa are kept
   const std::vector<mapping::FieldError> errors = mapping::compare_fields(a, m, fem);

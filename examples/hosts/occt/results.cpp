@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "builder/builder_e2e.h"
-#include "builder/host_call.h"
+#include "mesh/host_call.h"
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "occt_host.h"
@@ -232,7 +232,7 @@ int main(int argc, char** argv) {
     }
 
     // Table 2: the asset against true regenerations at random points.
-    cadinterp::builder::Host truth(*host);
+    cadinterp::mesh::Host truth(*host);
     try {
       // Also against the host's FEM on each evaluated mesh itself, which leaves out the
       // difference between the host's mesh of x and the evaluated one.

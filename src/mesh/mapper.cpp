@@ -1,6 +1,6 @@
-#include "builder/mapping_hook.h"
+#include "mesh/mapper.h"
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 bool IdentityMapper::map(const Sample& source, const Sample& canonical, MappedSample& out,
                          std::string& why) const {
@@ -16,4 +16,4 @@ bool IdentityMapper::map(const Sample& source, const Sample& canonical, MappedSa
   return true;
 }
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

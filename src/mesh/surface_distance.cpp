@@ -1,11 +1,11 @@
-#include "builder/surface_distance.h"
+#include "mesh/surface_distance.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <thread>
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 // The closest point lies in one of the seven Voronoi regions of the triangle (3 vertices,
 // 3 edges, the face), told apart by barycentric signs (Ericson, Real-Time Collision Detection,
@@ -210,4 +210,4 @@ double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std:
   return std::max(h1, h2);
 }
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

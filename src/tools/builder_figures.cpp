@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s: %s\n", model, err ? err : "?");
       return 1;
     }
-    const builder::Host h(*host);
+    const mesh::Host h(*host);
     cadinterp_build_options o;
     cadinterp_build_options_init(&o);
     o.max_samples = 400;

@@ -30,8 +30,8 @@
 #include "analytic_host.h"
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
-#include "builder/host_call.h"
-#include "builder/surface_distance.h"
+#include "mesh/host_call.h"
+#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "mapping/boundary_untangle.h"
@@ -82,13 +82,13 @@ const cadinterp_host* open_library_host(const std::string& library, const std::s
 // tags: faces merged, split, appeared or gone), 'E' when only B-rep vertices differ (the control
 // points of IDs {0, ...}, whose IDs name their edges: an edge split or joined, as where the
 // press's ram bore cuts into its fillet), '-' when neither.
-char topology_change(const builder::Sample& a, const builder::Sample& b) {
+char topology_change(const mesh::Sample& a, const mesh::Sample& b) {
   const std::set<std::int32_t> fa(a.triangle_tags.begin(), a.triangle_tags.end());
   const std::set<std::int32_t> fb(b.triangle_tags.begin(), b.triangle_tags.end());
   if (fa != fb) return 'T';
-  auto vertices = [](const builder::Sample& s) {
+  auto vertices = [](const mesh::Sample& s) {
     std::set<std::vector<std::int64_t>> v;
-    for (const builder::ControlPoint& p : s.points)
+    for (const mesh::ControlPoint& p : s.points)
       if (!p.id.empty() && p.id[0] == 0) v.insert(p.id);
     return v;
   };
@@ -102,11 +102,11 @@ double percentile(std::vector<double> v, double q) {
 }
 
 // map_sample with the command's options, as the Mapper that canonical_refine.h maps through.
-class OptionsMapper final : public builder::Mapper {
+class OptionsMapper final : public mesh::Mapper {
  public:
   explicit OptionsMapper(const mapping::MapOptions& options) : options_(options) {}
-  bool map(const builder::Sample& source, const builder::Sample& canonical,
-           builder::MappedSample& out, std::string& why) const override {
+  bool map(const mesh::Sample& source, const mesh::Sample& canonical,
+           mesh::MappedSample& out, std::string& why) const override {
     return mapping::map_sample(source, canonical, out, why, nullptr, options_);
   }
   const char* name() const override { return "report"; }
@@ -239,10 +239,10 @@ int pairs(const std::vector<std::string>& args) {
   if (!analytic && !sizes_given) sizes.clear();
   const cadinterp_host* h =
       analytic ? open_host(model, options) : open_library_host(library, model, options);
-  const builder::Host host(*h);
+  const mesh::Host host(*h);
   const analytic_model* am = analytic ? analytic_host_model(h) : nullptr;
   const bool other = !canonical_options.empty() && canonical_options != options;
-  const builder::Host canonical_host(!other ? *h
+  const mesh::Host canonical_host(!other ? *h
                                      : analytic
                                          ? *open_host(model, canonical_options)
                                          : *open_library_host(library, model, canonical_options));
@@ -314,32 +314,32 @@ int pairs(const std::vector<std::string>& args) {
       print_x("source", xa);
       print_x("canonical", xc);
     }
-    const builder::Sample a = host.evaluate(xa.data()), c = canonical_host.evaluate(xc.data());
+    const mesh::Sample a = host.evaluate(xa.data()), c = canonical_host.evaluate(xc.data());
     if (!a.feasible || !c.feasible) {
       ++infeasible;
       continue;
     }
     const char topo = topology_change(a, c);
     if (across && topo == '-') continue;
-    differing += builder::same_combinatorics(a, c) ? 0 : 1;
+    differing += mesh::same_combinatorics(a, c) ? 0 : 1;
     ++found;
     topology += topo == 'T' ? 1 : 0;
     edges_only += topo == 'E' ? 1 : 0;
-    builder::MappedSample m;
+    mesh::MappedSample m;
     std::string why;
     const auto t0 = Clock::now();
     // With --refine the pair is measured on the refined canonical `cr`.
-    builder::Sample cr;
+    mesh::Sample cr;
     mapping::RefineStats rs;
     bool ok;
     if (ro.rounds > 0) {
-      std::vector<builder::MappedSample> onto;
+      std::vector<mesh::MappedSample> onto;
       ok = mapping::refine_canonical({&a}, c, with_options, cr, onto, why, &rs, ro);
       if (ok) m = std::move(onto[0]);
     } else {
       ok = mapping::map_sample(a, c, m, why, nullptr, mo);
     }
-    const builder::Sample& cm = ro.rounds > 0 && ok ? cr : c;
+    const mesh::Sample& cm = ro.rounds > 0 && ok ? cr : c;
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (!ok) {
       ++failed;
@@ -361,11 +361,11 @@ int pairs(const std::vector<std::string>& args) {
     if (fem) {
       // The row's field columns: the largest of the fields' max and of their 99th percentiles.
       q.field_max = q.field_p99 = 0;
-      builder::Sample mesh;
+      mesh::Sample mesh;
       std::string no;
       if (!mapping::mesh_for_simulation(a, cm, m.vertices, mesh, no)) {
         by_field = "not simulated: " + no;
-      } else if (const builder::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
+      } else if (const mesh::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
         by_field = "not simulated: " + r.message;
       } else {
         for (const mapping::FieldError& e : mapping::compare_fields(a, m, r)) {
@@ -456,10 +456,10 @@ int pairs(const std::vector<std::string>& args) {
   }
   for (const std::string& e : edges) {
     const cadinterp_host* ph = open_host("plate", "edge=" + e);
-    const builder::Host plate(*ph);
+    const mesh::Host plate(*ph);
     const double xa[3] = {60, 30, 6}, xc[3] = {80, 45, 8};
-    const builder::Sample a = plate.evaluate(xa), c = plate.evaluate(xc);
-    builder::MappedSample m;
+    const mesh::Sample a = plate.evaluate(xa), c = plate.evaluate(xc);
+    mesh::MappedSample m;
     std::string why;
     int reps = 0;
     const auto t0 = Clock::now();
@@ -496,7 +496,7 @@ int cubic(const std::vector<std::string>& args) {
            0, 1);
   if (!p.parse(args)) return 0;
   const cadinterp_host* h = open_host(model, options);
-  const builder::Host host(*h);
+  const mesh::Host host(*h);
   const analytic_model* am = analytic_host_model(h);
   std::printf("model %s (%s), cubic, %d samples\n", model.c_str(), options.c_str(), samples);
   std::printf("%-9s %7s %7s %8s %7s %7s %7s | %8s %8s %10s %10s %10s %10s %7s %7s | %9s %9s %9s\n",
@@ -629,7 +629,7 @@ int sweep(const std::vector<std::string>& args) {
         hi3[v % 3] = std::max(hi3[v % 3], now[v]);
       }
       const double diag = std::hypot(hi3[0] - lo3[0], hi3[1] - lo3[1], hi3[2] - lo3[2]);
-      move = builder::symmetric_hausdorff(previous, previous_triangles, now, triangles) / diag;
+      move = mesh::symmetric_hausdorff(previous, previous_triangles, now, triangles) / diag;
       moves.push_back(move);
     }
     previous = std::move(now);
@@ -671,7 +671,7 @@ int meshes(const std::vector<std::string>& args) {
   if (!p.parse(args)) return 0;
   const cadinterp_host* h =
       library.empty() ? open_host(model, options) : open_library_host(library, model, options);
-  const builder::Host host(*h);
+  const mesh::Host host(*h);
   std::mt19937 rng(static_cast<unsigned>(seed));
   std::printf("%6s %7s %8s %8s %10s %7s %7s\n", "V", "T", "min_sj", "flat", "flat_bdry", "F",
               "F<15deg");
@@ -680,7 +680,7 @@ int meshes(const std::vector<std::string>& args) {
     std::vector<double> x(static_cast<std::size_t>(host.dim()));
     for (std::size_t d = 0; d < x.size(); ++d)
       x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
-    const builder::Sample s = host.evaluate(x.data());
+    const mesh::Sample s = host.evaluate(x.data());
     if (!s.feasible) {
       std::printf("infeasible: %s\n", s.message.c_str());
       continue;

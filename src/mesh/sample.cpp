@@ -1,4 +1,4 @@
-#include "builder/sample.h"
+#include "mesh/sample.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "format/codec.h"
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 using format::detail::get_f64;
 using format::detail::get_u32;
@@ -17,7 +17,7 @@ using format::detail::put_f64;
 using format::detail::put_u32;
 using format::detail::put_u64;
 
-double Sample::bbox_diagonal() const { return builder::bbox_diagonal(vertices); }
+double Sample::bbox_diagonal() const { return mesh::bbox_diagonal(vertices); }
 
 double bbox_diagonal(const std::vector<double>& vertices) {
   if (vertices.size() < 3) return 0.0;
@@ -228,4 +228,4 @@ bool same_combinatorics(const Sample& a, const Sample& b) {
          a.triangle_tags == b.triangle_tags;
 }
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

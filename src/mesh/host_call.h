@@ -8,16 +8,16 @@
 #include <string>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 #include "cadinterp/cadinterp_builder.h"
 
 /// The builder-owned object host callbacks write into (cadinterp_builder.h).
 struct cadinterp_sample {
-  cadinterp::builder::Sample sample;
+  cadinterp::mesh::Sample sample;
   bool mesh_set = false;
 };
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 class Host {
  public:
@@ -61,4 +61,4 @@ class Host {
   mutable std::mutex serial_;  // held around the callbacks of a host that is not thread-safe
 };
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 struct ControlPoint {
   std::vector<std::int64_t> id;  ///< the ID scheme of cadinterp_builder.h
@@ -69,4 +69,4 @@ Sample deserialize(const std::uint8_t* bytes, std::size_t size);
 /// True when a and b have the same combinatorics: vertex count, tets, triangles and tags.
 bool same_combinatorics(const Sample& a, const Sample& b);
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

@@ -1,4 +1,4 @@
-#include "builder/host_call.h"
+#include "mesh/host_call.h"
 
 #include <chrono>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include "core/grid.h"
 #include "format/asset_format.h"
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 Host::Host(const cadinterp_host& h) {
   if (h.struct_size < sizeof(cadinterp_host))
@@ -130,4 +130,4 @@ Sample Host::finish(cadinterp_sample& out, std::string err,
   return s;
 }
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 /// Barycentric weights (w[0] + w[1] + w[2] = 1, all >= 0) of the point of triangle (a, b, c)
 /// closest to p; a degenerate triangle gives its nearest corner.
@@ -47,4 +47,4 @@ double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std:
 std::vector<double> vertex_distances(const std::vector<double>& VA,
                                      const std::vector<std::uint32_t>& FA, const SurfaceIndex& B);
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "builder/sample.h"
+#include "mesh/sample.h"
 
-namespace cadinterp::builder {
+namespace cadinterp::mesh {
 
 /// A source sample in the canonical mesh's combinatorics.
 struct MappedSample {
@@ -39,4 +39,4 @@ class IdentityMapper final : public Mapper {
   const char* name() const override { return "identity"; }
 };
 
-}  // namespace cadinterp::builder
+}  // namespace cadinterp::mesh
