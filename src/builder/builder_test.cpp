@@ -1,4 +1,4 @@
-// Builder tests: samples, surface distances, the store, and whole builds through the C ABI with
+// Builder tests: the store, and whole builds through the C ABI with
 // a host over the synthetic deformed box (format/synthetic_asset.h), whose true answer is known
 // at every x: accuracy of the opened asset, determinism across thread counts, host failures,
 // cancellation, the mapping hook's refusal of unmapped combinatorics, and kill -9 resumption.
@@ -157,64 +157,6 @@ cadinterp_build_options small_options() {
 }
 
 // ---- Unit pieces ----------------------------------------------------------------------------
-
-TEST(Sample, SerializesLosslesslyAndValidates) {
-  BoxHost h(2);
-  const double x[2] = {0.3, 0.7};
-  Sample s = h.truth(x);
-  ASSERT_TRUE(s.feasible) << s.message;
-  const auto bytes = mesh::serialize(s);
-  const Sample t = mesh::deserialize(bytes.data(), bytes.size());
-  EXPECT_EQ(mesh::serialize(t), bytes);
-  EXPECT_EQ(t.vertices, s.vertices);
-  EXPECT_EQ(t.fields.size(), 2u);
-  for (std::size_t n = 0; n < bytes.size(); n += 7)
-    EXPECT_THROW(mesh::deserialize(bytes.data(), n), std::runtime_error) << n;
-
-  EXPECT_EQ(mesh::validate(s), "");
-  Sample bad = s;
-  std::swap(bad.tets[0], bad.tets[1]);  // odd permutation: inverted
-  EXPECT_NE(mesh::validate(bad).find("inverted"), std::string::npos);
-  bad = s;
-  bad.vertices[5] = std::nan("");
-  EXPECT_NE(mesh::validate(bad).find("non-finite"), std::string::npos);
-  bad = s;
-  bad.triangles[2] = static_cast<std::uint32_t>(s.vertex_count());
-  EXPECT_NE(mesh::validate(bad).find("out of range"), std::string::npos);
-  bad = s;
-  bad.fields[1].values.pop_back();
-  EXPECT_NE(mesh::validate(bad).find("stress"), std::string::npos);
-}
-
-TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
-  // Two unit squares 0.25 apart: Hausdorff 0.25.
-  const std::vector<double> A = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-  std::vector<double> B = A;
-  for (std::size_t i = 2; i < B.size(); i += 3) B[i] = 0.25;
-  const std::vector<std::uint32_t> F = {0, 1, 2, 0, 2, 3};
-  EXPECT_NEAR(mesh::symmetric_hausdorff(A, F, B, F), 0.25, 1e-15);
-
-  // A box surface against random points: the grid query equals the brute force over all
-  // triangles, inside, outside and far away.
-  BoxHost h(2);
-  const double x[2] = {0.5, 0.5};
-  const Sample s = h.truth(x);
-  const mesh::SurfaceIndex index(s.vertices, s.triangles);
-  const mesh::SurfaceIndex one_by_one(s.vertices, {});
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(-3.0, 3.0);
-  for (int i = 0; i < 300; ++i) {
-    const double p[3] = {u(rng), u(rng), u(rng) * (i % 3 == 0 ? 10 : 1)};
-    double brute = std::numeric_limits<double>::infinity();
-    for (std::size_t t = 0; t < s.triangle_count(); ++t) {
-      const std::vector<std::uint32_t> f(s.triangles.begin() + static_cast<long>(3 * t),
-                                         s.triangles.begin() + static_cast<long>(3 * t + 3));
-      brute = std::min(brute, mesh::SurfaceIndex(s.vertices, f).distance(p));
-    }
-    EXPECT_NEAR(index.distance(p), brute, 1e-12 * (1 + brute)) << i;
-  }
-  EXPECT_TRUE(std::isinf(one_by_one.distance(x)));
-}
 
 TEST(SampleStore, KeepsSamplesAndRefusesAnotherModel) {
   const std::string path = temp_path("store.sqlite");
