@@ -17,24 +17,11 @@
 #include "cli_commands.h"
 #include "cli_common.h"
 #include "format/asset_reader.h"
+#include "format/codec.h"
 #include "json_writer.h"
 
 namespace cadinterp::cli {
 namespace {
-
-const char* codec_name(fb::Codec c) {
-  switch (c) {
-    case fb::Codec::Raw:
-      return "raw";
-    case fb::Codec::QuantDeltaZstd:
-      return "quant-delta-zstd";
-    case fb::Codec::Meshopt:
-      return "meshopt";
-    case fb::Codec::Draco:
-      return "draco";
-  }
-  return "unknown";
-}
 
 struct Stat {
   double min = 0, max = 0, sum = 0;
@@ -135,7 +122,8 @@ void tally_elements(const format::AssetReader& reader, AssetSummary& s) {
     if (em->error_estimate() >= 0) s.err.add(em->error_estimate());
     auto add = [&](const char* kind, const fb::BlobRef* b, std::uint64_t raw) {
       if (!b) return;
-      BlobTotal& t = s.blobs[{kind, codec_name(b->codec())}];
+      // The index stores format::Codec's values (asset_writer.cpp), so the name is the codec's.
+      BlobTotal& t = s.blobs[{kind, format::codec_name(static_cast<format::Codec>(b->codec()))}];
       ++t.references;
       // Elements may reference the same stored blob; its bytes exist once in the file.
       if (!seen_blobs.insert({b->offset(), b->size()}).second) return;
