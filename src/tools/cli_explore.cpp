@@ -48,6 +48,47 @@ void print_explore_url(const std::string& url, void* user) {
   std::fflush(stdout);
 }
 
+/// Counts the feasible elements and, unless `quick`, evaluates each one; a failure names the
+/// element.
+void verify_elements(const cadinterp_asset* asset, const cadinterp::core::CompiledBasis& basis,
+                     const std::string& path, bool quick, int* feasible, int* verified) {
+  const auto uK = static_cast<std::size_t>(basis.dim());
+  // Every element's blobs are decoded (and checksummed) by one evaluation with all fields, so
+  // a damaged blob is found here instead of as an error in the browser mid-drag.
+  const std::vector<int> all_fields = select_fields(asset, "all");
+  WorkspacePtr ws = make_workspace(asset);
+  std::vector<double> lo(uK), hi(uK), x(uK);
+  cadinterp_mesh mesh{};
+  for (int e = 0; e < basis.element_count(); ++e) {
+    if (!basis.element_feasible(e)) continue;
+    ++*feasible;
+    if (quick) continue;
+    basis.element_box(e, lo.data(), hi.data());
+    for (std::size_t d = 0; d < uK; ++d) x[d] = 0.5 * (lo[d] + hi[d]);
+    const cadinterp_status es = cadinterp_eval(ws.get(), x.data(), all_fields.data(),
+                                               static_cast<int>(all_fields.size()), &mesh);
+    if (es != CADINTERP_OK)
+      throw RuntimeFailure("invalid asset " + path + ": element " + std::to_string(e) + ": " +
+                           describe(es, cadinterp_workspace_error(ws.get())));
+    ++*verified;
+  }
+}
+
+/// The explorer page and the WebAssembly runtime must exist before the server starts.
+void require_page(const std::string& web_root, const std::string& wasm_dir) {
+  if (!is_regular_file(web_root + "/index.html"))
+    throw RuntimeFailure(describe(
+        CADINTERP_E_IO, "the explorer page is not built: " + web_root +
+                            "/index.html is missing (build the target cadinterp_explorer_page "
+                            "after `npm ci` in examples/explorer, or pass --web-root)"));
+  for (const char* f : {"cadinterp.mjs", "cadinterp_wasm.mjs", "cadinterp_wasm.wasm"})
+    if (!is_regular_file(wasm_dir + "/" + f))
+      throw RuntimeFailure(
+          describe(CADINTERP_E_IO, "the WebAssembly runtime is missing: " + wasm_dir + "/" + f +
+                                       " not found (build it with scripts/build-wasm.sh, or pass "
+                                       "--wasm-dir)"));
+}
+
 }  // namespace
 
 int cmd_explore(const std::vector<std::string>& args) {
@@ -95,43 +136,13 @@ int cmd_explore(const std::vector<std::string>& args) {
   const auto uK = static_cast<std::size_t>(basis.dim());
   int feasible = 0, verified = 0;
   const auto t0 = Clock::now();
-  {
-    // Every element's blobs are decoded (and checksummed) by one evaluation with all fields, so
-    // a damaged blob is found here instead of as an error in the browser mid-drag.
-    const std::vector<int> all_fields = select_fields(asset.get(), "all");
-    WorkspacePtr ws = make_workspace(asset.get());
-    std::vector<double> lo(uK), hi(uK), x(uK);
-    cadinterp_mesh mesh{};
-    for (int e = 0; e < basis.element_count(); ++e) {
-      if (!basis.element_feasible(e)) continue;
-      ++feasible;
-      if (quick) continue;
-      basis.element_box(e, lo.data(), hi.data());
-      for (std::size_t d = 0; d < uK; ++d) x[d] = 0.5 * (lo[d] + hi[d]);
-      const cadinterp_status es = cadinterp_eval(ws.get(), x.data(), all_fields.data(),
-                                                 static_cast<int>(all_fields.size()), &mesh);
-      if (es != CADINTERP_OK)
-        throw RuntimeFailure("invalid asset " + path + ": element " + std::to_string(e) + ": " +
-                             describe(es, cadinterp_workspace_error(ws.get())));
-      ++verified;
-    }
-  }
+  verify_elements(asset.get(), basis, path, quick, &feasible, &verified);
   const double check_seconds = seconds_since(t0);
   if (feasible == 0)
     throw RuntimeFailure(describe(CADINTERP_E_INFEASIBLE,
                                   path + " has no feasible element: there is nothing to explore"));
 
-  if (!is_regular_file(web_root + "/index.html"))
-    throw RuntimeFailure(describe(
-        CADINTERP_E_IO, "the explorer page is not built: " + web_root +
-                            "/index.html is missing (build the target cadinterp_explorer_page "
-                            "after `npm ci` in examples/explorer, or pass --web-root)"));
-  for (const char* f : {"cadinterp.mjs", "cadinterp_wasm.mjs", "cadinterp_wasm.wasm"})
-    if (!is_regular_file(wasm_dir + "/" + f))
-      throw RuntimeFailure(
-          describe(CADINTERP_E_IO, "the WebAssembly runtime is missing: " + wasm_dir + "/" + f +
-                                       " not found (build it with scripts/build-wasm.sh, or pass "
-                                       "--wasm-dir)"));
+  require_page(web_root, wasm_dir);
 
   std::string name = path;
   if (const std::size_t slash = name.find_last_of('/'); slash != std::string::npos)
