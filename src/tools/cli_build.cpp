@@ -1,0 +1,345 @@
+// `cadinterp build`: loads a host (a library by dlopen, or one linked in), runs the builder on it
+// with progress on stderr and a clean stop on Ctrl-C, and prints the build's summary. CMake
+// compiles this file only when libcadinterp_builder is part of the build;
+// cli_build_unavailable.cpp stands in otherwise.
+#include <dlfcn.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_builder.h"
+#include "cli_args.h"
+#include "cli_commands.h"
+#include "cli_common.h"
+
+#ifdef CADINTERP_CLI_HAVE_ANALYTIC
+#include "analytic_host.h"
+#endif
+
+namespace cadinterp::cli {
+
+const char* builder_availability() { return "yes"; }
+
+std::string builtin_hosts() {
+  std::string s;
+#ifdef CADINTERP_CLI_HAVE_ANALYTIC
+  s += "analytic";
+#endif
+  return s;
+}
+
+namespace {
+
+volatile std::sig_atomic_t g_cancel = 0;
+
+extern "C" void on_sigint(int) { g_cancel = 1; }
+
+struct ProgressState {
+  bool tty = false;
+  bool quiet = false;
+  double last_print = -1e9;
+  bool line_open = false;  // a \r-updated line is on the terminal
+};
+
+std::string progress_line(const cadinterp_progress& p, bool bar) {
+  const int total = p.samples_done + p.samples_queued;
+  std::string s;
+  if (bar) {
+    constexpr int kWidth = 24;
+    const int filled = total > 0 ? kWidth * p.samples_done / total : 0;
+    s = "[" + std::string(static_cast<std::size_t>(filled), '#') +
+        std::string(static_cast<std::size_t>(kWidth - filled), '.') + "] ";
+  }
+  s += fmt("%d/%d samples, %d elements, %s", p.samples_done, total, p.elements,
+           human_seconds(p.seconds).c_str());
+  if (p.eta_seconds >= 0) s += ", ETA " + human_seconds(p.eta_seconds);
+  if (g_cancel) s += " (cancelling)";
+  return s;
+}
+
+extern "C" int on_progress(void* user, const cadinterp_progress* p) {
+  auto* st = static_cast<ProgressState*>(user);
+  if (!st->quiet) {
+    // A terminal gets a redrawn bar at most 10 times a second; a log gets a line a second.
+    const double interval = st->tty ? 0.1 : 1.0;
+    if (p->seconds - st->last_print >= interval) {
+      st->last_print = p->seconds;
+      if (st->tty) {
+        std::fprintf(stderr, "\r%s\x1b[K", progress_line(*p, true).c_str());
+        st->line_open = true;
+      } else {
+        std::fprintf(stderr, "progress: %s\n", progress_line(*p, false).c_str());
+      }
+      std::fflush(stderr);
+    }
+  }
+  return g_cancel ? 1 : 0;
+}
+
+struct LoadedHost {
+  void* library = nullptr;
+  const cadinterp_host* host = nullptr;
+  std::string source;
+  LoadedHost() = default;
+  LoadedHost(const LoadedHost&) = delete;
+  LoadedHost& operator=(const LoadedHost&) = delete;
+  ~LoadedHost() {
+    if (library) dlclose(library);
+  }
+};
+
+bool looks_like_path(const std::string& s) {
+  return s.find('/') != std::string::npos || s.find(".so") != std::string::npos;
+}
+
+void load_host(const std::string& spec, const std::string& model, const std::string& options,
+               LoadedHost& out) {
+  cadinterp_host_entry_fn entry = nullptr;
+  if (looks_like_path(spec)) {
+    out.library = dlopen(spec.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!out.library) {
+      const char* e = dlerror();
+      throw RuntimeFailure(describe(
+          CADINTERP_E_IO, "cannot load host library " + spec + ": " + (e ? e : "unknown error")));
+    }
+    // POSIX: a function pointer obtained from dlsym is usable as such.
+    void* sym = dlsym(out.library, CADINTERP_HOST_ENTRY_NAME);
+    if (!sym)
+      throw RuntimeFailure(
+          describe(CADINTERP_E_INVALID_ARGUMENT, spec + " exports no " CADINTERP_HOST_ENTRY_NAME
+                                                        " function (see cadinterp_host_entry_fn)"));
+    std::memcpy(&entry, &sym, sizeof entry);
+    out.source = spec;
+  } else {
+#ifdef CADINTERP_CLI_HAVE_ANALYTIC
+    if (spec == "analytic") {
+      entry = &cadinterp_host_entry;
+      out.source = "built-in analytic host";
+    }
+#endif
+    if (!entry) {
+      const std::string hosts = builtin_hosts();
+      throw UsageError("unknown host '" + spec +
+                       "': give the path of a host library (.so) or a built-in host (" +
+                       (hosts.empty() ? "none in this build" : hosts) + ")");
+    }
+  }
+  const char* error = nullptr;
+  out.host = entry(model.empty() ? nullptr : model.c_str(),
+                   options.empty() ? nullptr : options.c_str(), &error);
+  if (!out.host)
+    throw RuntimeFailure(
+        describe(CADINTERP_E_INVALID_ARGUMENT, "the host (" + out.source + ") refused model '" +
+                                                   model + "' with options '" + options +
+                                                   "': " + (error ? error : "no message")));
+}
+
+struct BuilderDestroyer {
+  void operator()(cadinterp_builder* b) const { cadinterp_builder_destroy(b); }
+};
+
+struct BuildArgs {
+  cadinterp_build_options o;
+  std::string host_spec, model, host_options, store, output, degree;
+  bool quiet = false, simulate_mapped = false;
+};
+
+void declare_options(ArgParser& p, BuildArgs& a) {
+  cadinterp_build_options& o = a.o;
+  const std::string hosts = builtin_hosts();
+  p.option("host", 0, "PATH|NAME",
+           "host library (.so exporting " CADINTERP_HOST_ENTRY_NAME ")\nor built-in host (" +
+               (hosts.empty() ? std::string("none in this build") : hosts) + ")",
+           &a.host_spec)
+      .required();
+  p.option("model", 'm', "NAME", "model of the host (default: the host's default model)", &a.model);
+  p.option("host-options", 0, "K=V,...", "host settings, passed through to the host",
+           &a.host_options);
+  p.choice("degree", 0, "basis degree: 1 linear (C0), 3 cubic (C2)", {"1", "3"}, &a.degree);
+  p.option("geometry-tol", 0, "REL", "Hausdorff error target / bbox diagonal",
+           &o.geometry_tolerance, 1e-12, 1);
+  p.option("field-tol", 0, "REL", "field error target / the field's value range",
+           &o.field_tolerance, 1e-12, 1e6);
+  p.option("max-samples", 0, "N", "no refinement starts beyond this many samples", &o.max_samples,
+           1, 100000000);
+  p.option("max-depth", 0, "N", "splits per direction", &o.max_depth, 0, 30);
+  p.option("threads", 'j', "N", "host evaluations in parallel (0: all cores)", &o.threads, 0, 4096);
+  p.option("store", 0, "FILE", "sample store (SQLite) to resume from and save to", &a.store);
+  p.option("lossy-positions", 0, "ERR",
+           "max absolute error the codec may add to positions,\nin model units (0: lossless)",
+           &o.position_max_abs_error, 0, 1e300);
+  p.flag("simulate-mapped", 0,
+         "a sample mapped onto another's mesh gets the host's simulate\non the mapped mesh "
+         "instead of its own fields carried over",
+         &a.simulate_mapped);
+  p.option("canonical-refinement", 0, "N",
+           "rounds of canonical refinement where a mapped term departs\nfrom its own boundary "
+           "(0: none)",
+           &o.canonical_refinement, 0, 20);
+  p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
+  p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
+  p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
+           "(model, options, &error)\nreturns the host (cadinterp_host_entry_fn in "
+           "cadinterp_builder.h).\n"
+           "\nexamples:\n"
+           "  cadinterp build --host analytic -o demo.cadi\n"
+           "  cadinterp build --host ./libmyhost.so --model bracket --degree 3 \\\n"
+           "      --geometry-tol 1e-3 --max-samples 500 --store bracket.db -o bracket.cadi");
+}
+
+/// Runs the build to `output`; the wall time goes to `*wall`.
+cadinterp_status run_cancellable(cadinterp_builder* builder, const std::string& output,
+                                 double* wall) {
+  // SA_RESETHAND: the first Ctrl-C asks for a clean stop, a second one kills as usual.
+  struct sigaction sa {
+  }, old{};
+  sa.sa_handler = on_sigint;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND;
+  sigaction(SIGINT, &sa, &old);
+  const auto t0 = Clock::now();
+  const cadinterp_status s = cadinterp_builder_run(builder, output.c_str());
+  *wall = seconds_since(t0);
+  sigaction(SIGINT, &old, nullptr);
+  return s;
+}
+
+/// What the run did, also when it failed (cadinterp_builder_report covers every exit path).
+void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_build_report& r,
+                   const cadinterp_build_stages& st, bool simulate_mapped) {
+  std::fprintf(out,
+               "  samples            %d (points requested %d, host evaluations %d, from the "
+               "store %d, infeasible %d)\n",
+               r.samples, st.points_requested, r.host_evaluations, r.store_hits,
+               r.infeasible_points);
+  for (int i = 0; i < st.infeasible_reasons; ++i) {
+    const char* message = nullptr;
+    int count = 0;
+    if (cadinterp_builder_infeasible_reason(builder, i, &message, &count) == CADINTERP_OK)
+      std::fprintf(out, "    infeasible x%-5d %s\n", count, message);
+  }
+  if (st.other_infeasible_points > 0)
+    std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
+  std::fprintf(out, "  elements           %d (infeasible %d, of which unmapped %d)\n", r.elements,
+               r.infeasible_elements, st.unmapped_elements);
+  if (simulate_mapped)
+    std::fprintf(out,
+                 "  simulate mapped    %d mapped terms simulated on their mapped mesh, %d "
+                 "failed (their fields carried over)\n",
+                 st.mapped_simulated, st.mapped_simulate_failures);
+  if (st.mapped_simulate_failures > 0)
+    std::fprintf(out, "    first failure    %s\n", st.first_mapped_simulate_failure);
+  if (st.refined_elements > 0)
+    std::fprintf(out, "  refined canonical  %d elements, %d vertices added\n", st.refined_elements,
+                 st.refined_vertices);
+  std::fprintf(out,
+               "  stages             store %s, sampling %s, refinement %s, elements %s, "
+               "writing %s\n",
+               human_seconds(st.store_seconds).c_str(), human_seconds(st.sampling_seconds).c_str(),
+               human_seconds(st.refinement_seconds).c_str(),
+               human_seconds(st.elements_seconds).c_str(), human_seconds(st.write_seconds).c_str());
+}
+
+/// Cancellation and failure become a RuntimeFailure (with the summary on stderr for a failure);
+/// success prints the summary on stdout.
+void report_outcome(cadinterp_status s, double wall, cadinterp_builder* builder, const BuildArgs& a,
+                    const ProgressState& progress) {
+  cadinterp_build_report r{};
+  cadinterp_builder_report(builder, &r);
+  if (s == CADINTERP_E_CANCELLED) {
+    throw RuntimeFailure(describe(
+        s, fmt("stopped after %s; %s", human_seconds(wall).c_str(),
+               a.store.empty() ? "the samples were in memory only (use --store to resume later)"
+                               : ("finished samples are kept in " + a.store +
+                                  ": run the same command to resume")
+                                     .c_str())));
+  }
+  cadinterp_build_stages st;
+  std::memset(&st, 0, sizeof st);
+  st.struct_size = sizeof st;
+  cadinterp_builder_stages(builder, &st);
+  const bool simulate_mapped = a.o.simulate_mapped != 0;
+  if (s != CADINTERP_OK) {
+    std::fprintf(stderr, "build summary (failed after %s)\n", human_seconds(wall).c_str());
+    print_summary(stderr, builder, r, st, simulate_mapped);
+    throw RuntimeFailure("build failed: " + describe(s, cadinterp_builder_error(builder)));
+  }
+  if (!a.quiet)
+    std::fprintf(stderr, "%sdone: %d samples, %d elements in %s\n",
+                 progress.tty ? "" : "progress: ", r.samples, r.elements,
+                 human_seconds(r.wall_seconds).c_str());
+
+  std::printf("build summary\n");
+  std::printf("  asset              %s, %s (%llu bytes)\n", a.output.c_str(),
+              human_bytes(r.asset_bytes).c_str(), static_cast<unsigned long long>(r.asset_bytes));
+  print_summary(stdout, builder, r, st, simulate_mapped);
+  std::printf("  stored meshes      %d\n", r.stored_meshes);
+  std::printf("  max error          %.3g x the target (%s)\n", r.max_error,
+              r.max_error <= 1 ? "met" : "not met");
+  std::printf("  time               %s wall, %s in the host", human_seconds(r.wall_seconds).c_str(),
+              human_seconds(r.host_seconds).c_str());
+  if (r.host_evaluations > 0)
+    std::printf(", %s per sample", human_seconds(r.host_seconds / r.host_evaluations).c_str());
+  std::printf("\n");
+  if (r.budget_exhausted)
+    std::printf(
+        "note: --max-samples (%d) stopped refinement before every element met the tolerance\n",
+        a.o.max_samples);
+}
+
+}  // namespace
+
+int cmd_build(const std::vector<std::string>& args) {
+  BuildArgs a;
+  cadinterp_build_options& o = a.o;
+  cadinterp_build_options_init(&o);
+  a.degree = std::to_string(o.degree);
+  ArgParser p(
+      "cadinterp build", "--host PATH|NAME -o OUT.cadi [options]",
+      "Precomputes a parametric model into an asset: samples the host adaptively on a K-d tree\n"
+      "until every element meets the tolerances or a budget is reached, then writes the asset.\n"
+      "Ctrl-C cancels cleanly; with --store, running the same command again resumes without\n"
+      "evaluating finished samples again.");
+  declare_options(p, a);
+  if (!p.parse(args)) return kExitOk;
+  o.degree = std::stoi(a.degree);
+  o.simulate_mapped = a.simulate_mapped ? 1 : 0;
+  if (!a.store.empty()) o.store_path = a.store.c_str();
+
+  LoadedHost host;
+  load_host(a.host_spec, a.model, a.host_options, host);
+
+  ProgressState progress;
+  progress.tty = isatty(STDERR_FILENO) != 0;
+  progress.quiet = a.quiet;
+  o.progress = on_progress;
+  o.progress_user = &progress;
+
+  cadinterp_builder* raw = nullptr;
+  cadinterp_status s = cadinterp_builder_create(host.host, &o, &raw);
+  if (s != CADINTERP_OK)
+    throw RuntimeFailure("cannot create the builder: " +
+                         describe(s, cadinterp_builder_open_error()));
+  std::unique_ptr<cadinterp_builder, BuilderDestroyer> builder(raw);
+
+  if (!a.quiet) {
+    std::fprintf(stderr, "building %s with %s (%d parameter%s, degree %d)%s\n", a.output.c_str(),
+                 host.source.c_str(), host.host->parameter_count,
+                 host.host->parameter_count == 1 ? "" : "s", o.degree,
+                 a.store.empty() ? "" : (", store " + a.store).c_str());
+  }
+  double wall = 0;
+  s = run_cancellable(builder.get(), a.output, &wall);
+  // The bar's last frame may be up to 0.1 s stale: replace it by the outcome below.
+  if (progress.line_open) std::fputs("\r\x1b[K", stderr);
+  report_outcome(s, wall, builder.get(), a, progress);
+  return kExitOk;
+}
+
+}  // namespace cadinterp::cli
