@@ -515,6 +515,6 @@ BENCHMARK_MAIN();
 // both sizes, which is the kernel's read-around on the first fault of the mapping, not the
 // reader's work: this VM's disk has read_ahead_kb = 8192, so that fault reads up to 8 MB
 // (BM_ColdFirstPage: first touch of a mapping 3.3-4.6 ms; after madvise(MADV_RANDOM) 70-84 us,
-// the same as a 4 KiB pread, 72-104 us). The reader now maps with MADV_RANDOM (and asks for
+// the same as a 4 KiB pread, 72-104 us). The reader maps with MADV_RANDOM (and asks for
 // each blob's pages when it decodes it): a cold open takes 0.48-0.52 ms for both sizes, 4 page
 // faults; warm 42-43 us wall, 26 us CPU (same run, 2026-11-21).

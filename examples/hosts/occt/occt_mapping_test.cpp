@@ -65,7 +65,7 @@ TEST(OcctMapping, PressBoreThatCutsTheFilletEdgeStaysWithTheCeiling) {
 // ceiling merge and the bore's lower rim is a loop without any anchor on both sides. Each side's
 // slit from the face's corner anchor to the rim's nearest vertex ended about 45 degrees round
 // the bore from the other's; the bore's wall, anchored by its top rim, twisted between the two and
-// 2 tets with all four vertices on the boundary stayed inverted. The corner's slit now ends in
+// 2 tets with all four vertices on the boundary stayed inverted. The corner's slit ends in
 // the canonical's direction from the rim's centre.
 TEST(OcctMapping, PressBoreRimWithoutAnchorIsSlitInTheSameDirectionOnBothSides) {
   expect_maps("press", "mesh_size=30,quality=2,angle=0.4", {200, 100, 40, 35, 30},
@@ -87,7 +87,7 @@ TEST(OcctMapping, HubSlitRoundABoltHoleIsMeasuredAlongItsEdges) {
 // the flange face with three bolt-hole rims that carry no anchor. On the centre's mesh every
 // wedge of that patch at each of its 16 first-loop anchors is a single triangle between two loop
 // edges, so no slit could leave an anchor ("no paths split a patch with a hole the same way on
-// both sides (0 candidates tried)"). The slit now starts at a first-loop vertex beside them,
+// both sides (0 candidates tried)"). The slit starts at a first-loop vertex beside them,
 // which becomes a new anchor at the same fraction of its CAD path on both sides.
 TEST(OcctMapping, HubSlitStartsBesideAnchorsWhoseWedgesAreSingleTriangles) {
   expect_maps("hub", "mesh_size=16,quality=2,angle=0.2", {8, 0, 4.75}, {9, 3, 5.625}, 1e-3);
@@ -107,7 +107,7 @@ TEST(OcctMapping, HubSlitStartsBesideAnchorsWhenSlitsFromTheFarAnchorDiffer) {
 // corner's a vertex lies inside the row and its slit bends by 2.65 mm on 8.6 mm, more than a
 // quarter of the path, so no slit ran alike. In an annulus two slits differ in kind only by their
 // winding round the hole, about the hole's diameter apart (110 mm here): within a quarter of that
-// they now run alike.
+// they run alike.
 TEST(OcctMapping, HubSlitAcrossAnAnnulusOneTriangleWideRunsAlike) {
   expect_maps("hub", "angle=0.2", {9.38213, 9.66734, 6.83686}, {7.98021, 0.129262, 4.72844}, 1e-3);
 }
@@ -118,7 +118,7 @@ TEST(OcctMapping, HubSlitAcrossAnAnnulusOneTriangleWideRunsAlike) {
 // and the two paths that split the bottom face both ended there: the piece holding the hole
 // wrapped round it, with a strip 0.5 mm wide between a path and the rim on the canonical and
 // 2 mm wide on the source, and the disk maps squeezed the canonical's first row of triangles at
-// the rim (0.66 mm) to 0.01 mm; a tet on it stayed inverted. The second path now ends at a new
+// the rim (0.66 mm) to 0.01 mm; a tet on it stayed inverted. The second path ends at a new
 // anchor on the far side of the rim.
 TEST(OcctMapping, MountHoleSplitByPathsToBothSidesOfItsRim) {
   expect_maps("mount", "angle=0.2",
@@ -135,7 +135,7 @@ TEST(OcctMapping, MountHoleSplitByPathsToBothSidesOfItsRim) {
 // 122.9, 6.2, 23.4). The mapped mesh keeps the canonical's face tags, and the host finds its
 // fixed jaw and loaded handle end on it through the canonical's regions; what remains is the
 // difference between two linear-tet discretizations of one solid (5.1e-2 of the displacement's
-// range when measured, von Mises 99th percentile 0.11: src/mapping/README.md, round 16). A lost
+// range when measured, von Mises 99th percentile 0.11: docs/mapping-decisions.md, "Fields"). A lost
 // load would leave a difference of the whole range, a lost fixture no solution.
 TEST(OcctMapping, FieldsCarriedAgreeWithTheHostsFemOnTheMappedMesh) {
   occt::Model model("wrench", "");
