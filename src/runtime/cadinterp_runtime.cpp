@@ -1,8 +1,8 @@
 // The C ABI of include/cadinterp/cadinterp.h: argument checks, the exception guard, and the
 // queries answered from the asset's metadata. The objects behind the handles are in
 // runtime_objects.h, the element cache in element_cache.h, the evaluation bodies in evaluate.h.
-// Every exported body that can throw runs inside CADINTERP_GUARD, which maps exceptions to
-// status codes: nothing crosses the ABI.
+// Every exported body that can throw runs between CADINTERP_CATCH_BEGIN and _END (capi_guard.h),
+// which map exceptions to status codes: nothing crosses the ABI.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -13,6 +13,7 @@
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
 #include "format/asset_reader.h"
+#include "runtime/capi_guard.h"
 #include "runtime/evaluate.h"
 #include "runtime/runtime_objects.h"
 
@@ -29,24 +30,6 @@ namespace {
 
 thread_local std::string t_open_error;
 
-cadinterp_status to_status(cadinterp::format::Status s) {
-  return static_cast<cadinterp_status>(static_cast<int>(s));
-}
-
-// Every exported body is wrapped once: exceptions become statuses (CONVENTIONS.md).
-#define CADINTERP_GUARD(ws, ...)                                                       \
-  try {                                                                                \
-    __VA_ARGS__                                                                        \
-  } catch (const cadinterp::format::FormatError& e) {                                  \
-    return fail(ws, to_status(e.status), e.what());                                    \
-  } catch (const std::bad_alloc&) {                                                    \
-    return fail(ws, CADINTERP_E_OUT_OF_MEMORY, "out of memory");                       \
-  } catch (const std::exception& e) {                                                  \
-    return fail(ws, CADINTERP_E_INTERNAL, std::string("internal error: ") + e.what()); \
-  } catch (...) {                                                                      \
-    return fail(ws, CADINTERP_E_INTERNAL, "internal error: unknown exception");        \
-  }
-
 cadinterp_status open_with(
     const std::function<std::unique_ptr<cadinterp::format::AssetReader>()>& make,
     cadinterp_asset** out) {
@@ -55,22 +38,10 @@ cadinterp_status open_with(
     t_open_error = "out is NULL";
     return CADINTERP_E_INVALID_ARGUMENT;
   }
-  try {
-    *out = cadinterp::runtime::make_asset(make()).release();
-    return CADINTERP_OK;
-  } catch (const cadinterp::format::FormatError& e) {
-    t_open_error = e.what();
-    return to_status(e.status);
-  } catch (const std::bad_alloc&) {
-    t_open_error = "out of memory";
-    return CADINTERP_E_OUT_OF_MEMORY;
-  } catch (const std::exception& e) {
-    t_open_error = std::string("internal error: ") + e.what();
-    return CADINTERP_E_INTERNAL;
-  } catch (...) {
-    t_open_error = "internal error: unknown exception";
-    return CADINTERP_E_INTERNAL;
-  }
+  CADINTERP_CATCH_BEGIN
+  *out = cadinterp::runtime::make_asset(make()).release();
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END(&t_open_error)
 }
 
 }  // namespace
@@ -231,21 +202,21 @@ cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a, const double
 
 cadinterp_status cadinterp_set_cache_budget(cadinterp_asset* a, size_t bytes) {
   if (!a) return CADINTERP_E_INVALID_ARGUMENT;
-  CADINTERP_GUARD(nullptr, {
-    a->cache.set_budget(bytes);
-    return CADINTERP_OK;
-  })
+  CADINTERP_CATCH_BEGIN
+  a->cache.set_budget(bytes);
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END(nullptr)
 }
 
 cadinterp_status cadinterp_workspace_create(const cadinterp_asset* a, cadinterp_workspace** out) {
   if (!a || !out) return CADINTERP_E_INVALID_ARGUMENT;
-  CADINTERP_GUARD(nullptr, {
-    auto ws = std::make_unique<cadinterp_workspace>();
-    ws->asset = a;
-    ws->basis_ws = a->reader->basis().make_workspace();
-    *out = ws.release();
-    return CADINTERP_OK;
-  })
+  CADINTERP_CATCH_BEGIN
+  auto ws = std::make_unique<cadinterp_workspace>();
+  ws->asset = a;
+  ws->basis_ws = a->reader->basis().make_workspace();
+  *out = ws.release();
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END(nullptr)
 }
 
 void cadinterp_workspace_destroy(cadinterp_workspace* ws) { delete ws; }
@@ -258,7 +229,9 @@ cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x, const 
                                 int field_count, cadinterp_mesh* out) {
   if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
   if (!out) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out is NULL");
-  CADINTERP_GUARD(ws, { return evaluate_mesh(ws, x, fields, field_count, out); })
+  CADINTERP_CATCH_BEGIN
+  return evaluate_mesh(ws, x, fields, field_count, out);
+  CADINTERP_CATCH_END(&ws->error)
 }
 
 cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
@@ -271,17 +244,19 @@ cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
     return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "vertices is NULL with a nonzero count");
   if (!tets && tet_subset_count > 0)
     return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "tets is NULL with a nonzero count");
-  CADINTERP_GUARD(ws, {
-    return evaluate_subset(ws, x, vertices, vertex_subset_count, tets, tet_subset_count, fields,
-                           field_count, out);
-  })
+  CADINTERP_CATCH_BEGIN
+  return evaluate_subset(ws, x, vertices, vertex_subset_count, tets, tet_subset_count, fields,
+                         field_count, out);
+  CADINTERP_CATCH_END(&ws->error)
 }
 
 cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x, const int* fields,
                                 int field_count, cadinterp_mesh_grad* out) {
   if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
   if (!out) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out is NULL");
-  CADINTERP_GUARD(ws, { return evaluate_grad(ws, x, fields, field_count, out); })
+  CADINTERP_CATCH_BEGIN
+  return evaluate_grad(ws, x, fields, field_count, out);
+  CADINTERP_CATCH_END(&ws->error)
 }
 
 cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const float* dF_dpositions,
@@ -289,8 +264,9 @@ cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const f
                                double* dF_dx) {
   if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
   if (!dF_dx) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "dF_dx is NULL");
-  CADINTERP_GUARD(
-      ws, { return evaluate_vjp(ws, x, dF_dpositions, fields, dF_dfields, field_count, dF_dx); })
+  CADINTERP_CATCH_BEGIN
+  return evaluate_vjp(ws, x, dF_dpositions, fields, dF_dfields, field_count, dF_dx);
+  CADINTERP_CATCH_END(&ws->error)
 }
 
 cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double* x, double density,
@@ -299,7 +275,9 @@ cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double
   if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
   if (!out || !direction) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out or direction is NULL");
   if (!std::isfinite(density)) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "density not finite");
-  CADINTERP_GUARD(ws, { return evaluate_properties(ws, x, density, direction, out, grad); })
+  CADINTERP_CATCH_BEGIN
+  return evaluate_properties(ws, x, density, direction, out, grad);
+  CADINTERP_CATCH_END(&ws->error)
 }
 
 }  // extern "C"

@@ -15,6 +15,7 @@
 #include "cadinterp_generated.h"
 #include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
+#include "runtime/capi_guard.h"
 #include "runtime/mesh_metrics.h"
 
 namespace {
@@ -413,6 +414,54 @@ TEST(Runtime, OpenReportsNamedErrors) {
   b = o->bytes;
   b.resize(b.size() / 2);
   EXPECT_EQ(cadinterp_open_memory(b.data(), b.size(), 1, &a), CADINTERP_E_TRUNCATED);
+}
+
+// A guarded body's status and message for the exception it throws.
+template <class E>
+cadinterp_status guarded_throw(const E& e, std::string* error) {
+  CADINTERP_CATCH_BEGIN
+  throw e;
+  CADINTERP_CATCH_END(error)
+}
+
+bool map_range_errors(cadinterp_status* status, std::string* error) {
+  try {
+    throw;
+  } catch (const std::out_of_range& e) {
+    *status = CADINTERP_E_INVALID_ARGUMENT;
+    if (error) *error = e.what();
+    return true;
+  } catch (...) {
+    return false;
+  }
+}
+
+cadinterp_status guarded_mapped_throw(const std::exception& e, std::string* error) {
+  CADINTERP_CATCH_BEGIN
+  if (dynamic_cast<const std::out_of_range*>(&e)) throw std::out_of_range(e.what());
+  throw std::runtime_error(e.what());
+  CADINTERP_CATCH_END_MAP(error, map_range_errors)
+}
+
+TEST(CapiGuard, MapsEachExceptionToItsStatusAndMessage) {
+  std::string error;
+  EXPECT_EQ(guarded_throw(
+                cadinterp::format::FormatError(cadinterp::format::Status::Truncated, "short file"),
+                &error),
+            CADINTERP_E_TRUNCATED);
+  EXPECT_EQ(error, "short file");
+  EXPECT_EQ(guarded_throw(std::bad_alloc(), &error), CADINTERP_E_OUT_OF_MEMORY);
+  EXPECT_EQ(error, "out of memory");
+  EXPECT_EQ(guarded_throw(std::logic_error("boom"), &error), CADINTERP_E_INTERNAL);
+  EXPECT_EQ(error, "internal error: boom");
+  EXPECT_EQ(guarded_throw(42, &error), CADINTERP_E_INTERNAL);
+  EXPECT_EQ(error, "internal error: unknown exception");
+  EXPECT_EQ(guarded_throw(std::bad_alloc(), nullptr), CADINTERP_E_OUT_OF_MEMORY);
+  EXPECT_EQ(guarded_mapped_throw(std::out_of_range("index 9"), &error),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(error, "index 9");
+  EXPECT_EQ(guarded_mapped_throw(std::runtime_error("other"), &error), CADINTERP_E_INTERNAL);
+  EXPECT_EQ(error, "internal error: other");
 }
 
 TEST(Runtime, TinyCacheBudgetStillEvaluatesCorrectly) {
