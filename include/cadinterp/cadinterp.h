@@ -82,7 +82,11 @@ CADINTERP_API const char* cadinterp_status_string(cadinterp_status status);
  * size of the mesh data.
  * @param[in]  path  file name (NUL-terminated)
  * @param[out] out   the asset on success; untouched on failure
- * @return CADINTERP_OK or an error (message: cadinterp_open_error on this thread)
+ * @return CADINTERP_OK or an error (message: cadinterp_open_error on this thread):
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument; CADINTERP_E_IO if the file cannot be
+ *         opened or mapped, or is not a regular file (a directory, a FIFO, a device: refused
+ *         without reading from it or waiting for a writer); the format errors of the header
+ *         and the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT); CADINTERP_E_OUT_OF_MEMORY
  */
 CADINTERP_API cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out);
 

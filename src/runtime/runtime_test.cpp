@@ -1,12 +1,18 @@
 // The C ABI end to end on synthetic assets: queries, eval against the basis and against the
 // analytic host, gradients against finite differences, the vector-Jacobian product, mass
 // properties and their gradients, and the failure statuses.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <future>
 #include <random>
 #include <set>
 #include <string>
@@ -462,6 +468,35 @@ TEST(CapiGuard, MapsEachExceptionToItsStatusAndMessage) {
   EXPECT_EQ(error, "index 9");
   EXPECT_EQ(guarded_mapped_throw(std::runtime_error("other"), &error), CADINTERP_E_INTERNAL);
   EXPECT_EQ(error, "internal error: other");
+}
+
+// Opening a FIFO without a writer must not wait for one: open refuses anything but a regular file
+// before reading it. Should open block, the test writes to the FIFO to release it, then fails.
+TEST(Runtime, OpenRefusesFifosAndDirectoriesWithoutBlocking) {
+  char dir[] = "/tmp/cadinterp_fifo_XXXXXX";
+  ASSERT_NE(::mkdtemp(dir), nullptr);
+  const std::string fifo = std::string(dir) + "/asset.cadi";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  cadinterp_asset* a = nullptr;
+  auto opened = std::async(std::launch::async, [&] {
+    const cadinterp_status s = cadinterp_open(fifo.c_str(), &a);
+    return std::make_pair(s, std::string(cadinterp_open_error()));
+  });
+  if (opened.wait_for(std::chrono::seconds(10)) != std::future_status::ready) {
+    const int w = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (w >= 0) ::close(w);
+    ADD_FAILURE() << "cadinterp_open blocked on a FIFO without a writer";
+  }
+  const auto [status, message] = opened.get();
+  EXPECT_EQ(status, CADINTERP_E_IO);
+  EXPECT_NE(message.find("not a readable regular file"), std::string::npos) << message;
+  EXPECT_EQ(a, nullptr);
+  EXPECT_EQ(cadinterp_open(dir, &a), CADINTERP_E_IO);
+  EXPECT_NE(std::string(cadinterp_open_error()).find("not a readable regular file"),
+            std::string::npos);
+  EXPECT_EQ(a, nullptr);
+  ::unlink(fifo.c_str());
+  ::rmdir(dir);
 }
 
 TEST(Runtime, TinyCacheBudgetStillEvaluatesCorrectly) {
