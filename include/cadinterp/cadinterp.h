@@ -47,7 +47,7 @@ typedef enum cadinterp_status {
   CADINTERP_E_TRUNCATED = 6,           /**< the file is shorter than its header says */
   CADINTERP_E_CORRUPT_INDEX = 7,       /**< the index fails verification */
   CADINTERP_E_CHECKSUM = 8,            /**< stored bytes differ from their checksum */
-  CADINTERP_E_OUT_OF_RANGE = 9,        /**< a blob lies outside the file */
+  CADINTERP_E_OUT_OF_RANGE = 9,        /**< a blob lies outside the file (never a caller's index) */
   CADINTERP_E_LIMIT = 10,              /**< a count exceeds the reader's limits */
   CADINTERP_E_CORRUPT_BLOB = 11,       /**< mesh data fails to decode or holds invalid values */
   CADINTERP_E_OUTSIDE_DOMAIN = 12,     /**< x is outside the parameter box (or not finite) */
@@ -272,8 +272,8 @@ CADINTERP_API cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const dou
  * only a previous call can tell: cadinterp_eval, or this one with empty subsets).
  * @param[in]  vertices  vertex ids (may be NULL if vertex_subset_count is 0)
  * @param[in]  tets      tet ids (may be NULL if tet_subset_count is 0)
- * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count,
- *         CADINTERP_E_OUT_OF_RANGE for an id >= #V (or #T) of the element holding x
+ * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count
+ *         and for an id >= #V (or #T) of the element holding x (the message names the first)
  */
 CADINTERP_API cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
                                                      const uint32_t* vertices,

@@ -213,12 +213,13 @@ void blend_rows(cadinterp_workspace* ws, const double* weight, std::size_t offse
 }
 
 // CADINTERP_OK when every id of ids[0, n) is below `limit` (the element's #V or #T), else
-// CADINTERP_E_OUT_OF_RANGE naming the first that is not.
+// CADINTERP_E_INVALID_ARGUMENT naming the first that is not (a caller's bad index, like a field
+// index out of range; CADINTERP_E_OUT_OF_RANGE names a blob outside the file).
 cadinterp_status check_ids(cadinterp_workspace* ws, const std::uint32_t* ids, std::size_t n,
                            std::size_t limit, const char* array, const char* what, int element) {
   for (std::size_t i = 0; i < n; ++i)
     if (ids[i] >= limit)
-      return fail(ws, CADINTERP_E_OUT_OF_RANGE,
+      return fail(ws, CADINTERP_E_INVALID_ARGUMENT,
                   std::string(array) + "[" + std::to_string(i) + "] = " + std::to_string(ids[i]) +
                       " is not a " + what + " of element " + std::to_string(element) + " (it has " +
                       std::to_string(limit) + ")");

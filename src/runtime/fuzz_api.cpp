@@ -564,7 +564,7 @@ void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCop
     const std::uint32_t past = V;
     poison(&sub);
     st = cadinterp_eval_subset(ws, x, &past, 1, nullptr, 0, nullptr, 0, &sub);
-    CHECK(st == CADINTERP_E_OUT_OF_RANGE || st == CADINTERP_E_CHECKSUM ||
+    CHECK(st == CADINTERP_E_INVALID_ARGUMENT || st == CADINTERP_E_CHECKSUM ||
               st == CADINTERP_E_CORRUPT_BLOB,
           "eval_subset with vertex #V: %s", name(st));
     CHECK(poisoned(&sub), "eval_subset wrote its output on failure");

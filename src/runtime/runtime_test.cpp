@@ -252,12 +252,13 @@ TEST(Runtime, EvalSubsetRefusesBadIdsAndLeavesItsOutputUntouched) {
   const cadinterp_mesh before = m;
   const int fields[1] = {1};
   const std::uint32_t good[2] = {0, nv - 1}, bad_v[3] = {0, nv, 1}, bad_t[1] = {nt};
+  // A bad id is the caller's argument (CADINTERP_E_OUT_OF_RANGE names a blob outside the file).
   EXPECT_EQ(cadinterp_eval_subset(o->ws, x, bad_v, 3, nullptr, 0, nullptr, 0, &m),
-            CADINTERP_E_OUT_OF_RANGE);
+            CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("vertices[1]"), std::string::npos)
       << cadinterp_workspace_error(o->ws);
   EXPECT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, bad_t, 1, fields, 1, &m),
-            CADINTERP_E_OUT_OF_RANGE);
+            CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("tets[0]"), std::string::npos);
   EXPECT_EQ(cadinterp_eval_subset(o->ws, x, nullptr, 2, nullptr, 0, nullptr, 0, &m),
             CADINTERP_E_INVALID_ARGUMENT);
