@@ -194,6 +194,24 @@ CADINTERP_API cadinterp_status cadinterp_get_provenance(const cadinterp_asset* a
 CADINTERP_API cadinterp_status cadinterp_locate(const cadinterp_asset* asset, const double* x,
                                                 int* element, int* feasible);
 
+/**
+ * The mesh sizes of element `element` (as cadinterp_locate returns it), read from the index
+ * without decoding anything: the #V, #T and #F that cadinterp_eval, cadinterp_eval_subset and
+ * cadinterp_grad report for any x in the element. For sizing per-vertex and per-tet arrays
+ * before a call, notably cadinterp_grad's dfields (cadinterp_mesh_grad has no tet count). An
+ * infeasible element has no meshes: all three are 0.
+ * @param[in]  element         0 <= element < cadinterp_element_count(asset)
+ * @param[out] vertex_count    #V (may be NULL)
+ * @param[out] tet_count       #T (may be NULL)
+ * @param[out] triangle_count  #F (may be NULL)
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT if asset is NULL or element is out of range
+ *         (outputs untouched). Thread-safety: safe (reads the immutable index).
+ */
+CADINTERP_API cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset* asset,
+                                                           int element, uint32_t* vertex_count,
+                                                           uint32_t* tet_count,
+                                                           uint32_t* triangle_count);
+
 /** The builder's error estimate of the element holding x (relative to the model's bounding-box
  *  diagonal; negative if the builder did not measure it). */
 CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* asset,
@@ -268,8 +286,8 @@ CADINTERP_API cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const dou
  * tet_subset_count rows (per-tet fields, row i: tets[i]) of its components. Ids may repeat and
  * come in any order. Rows equal cadinterp_eval's up to float rounding: bit for bit with the
  * portable kernel (WebAssembly); on x86-64 with AVX2 the whole-mesh kernel fuses multiply-adds.
- * The ids are checked against the element holding x (its #V and #T, which
- * only a previous call can tell: cadinterp_eval, or this one with empty subsets).
+ * The ids are checked against the element holding x: its #V and #T, which
+ * cadinterp_element_mesh_size gives for the element cadinterp_locate returns.
  * @param[in]  vertices  vertex ids (may be NULL if vertex_subset_count is 0)
  * @param[in]  tets      tet ids (may be NULL if tet_subset_count is 0)
  * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count
@@ -282,7 +300,8 @@ CADINTERP_API cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, co
                                                      const int* fields, int field_count,
                                                      cadinterp_mesh* out);
 
-/** Derivatives of an evaluated mesh with respect to the parameters (Eq. 13). */
+/** Derivatives of an evaluated mesh with respect to the parameters (Eq. 13). It carries no
+ *  tet count: per-tet arrays are sized with cadinterp_element_mesh_size (g.element). */
 typedef struct cadinterp_mesh_grad {
   int element;
   uint32_t vertex_count;

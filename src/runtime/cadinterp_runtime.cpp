@@ -190,6 +190,19 @@ cadinterp_status cadinterp_locate(const cadinterp_asset* a, const double* x, int
   return CADINTERP_OK;
 }
 
+cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset* a, int element,
+                                             uint32_t* vertex_count, uint32_t* tet_count,
+                                             uint32_t* triangle_count) {
+  if (!a || element < 0 || element >= a->reader->basis().element_count())
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const auto* m = a->reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(element));
+  const bool meshes = m->vertex_count() > 0;  // an infeasible element has none (reader checks)
+  if (vertex_count) *vertex_count = m->vertex_count();
+  if (tet_count) *tet_count = meshes ? m->tet_count() : 0;
+  if (triangle_count) *triangle_count = meshes ? m->triangle_count() : 0;
+  return CADINTERP_OK;
+}
+
 cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a, const double* x,
                                           double* error) {
   if (!a || !x || !error) return CADINTERP_E_INVALID_ARGUMENT;

@@ -281,6 +281,53 @@ TEST(Runtime, EvalSubsetRefusesBadIdsAndLeavesItsOutputUntouched) {
   EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
 }
 
+// Per-tet gradient arrays can be sized before any eval: locate, then the element's mesh size.
+TEST(Runtime, ElementMeshSizeSizesGradArraysBeforeEval) {
+  SyntheticSpec s = spec(2, cadinterp::core::Degree::Linear);
+  s.infeasible_corner = true;
+  const auto o = open_synthetic(s);
+  int stress = -1;
+  ASSERT_EQ(cadinterp_find_field(o->asset, "stress", &stress), CADINTERP_OK);
+  cadinterp_field_info info;
+  ASSERT_EQ(cadinterp_field(o->asset, stress, &info), CADINTERP_OK);
+  ASSERT_EQ(info.location, CADINTERP_PER_TET);
+  const double xs[3][2] = {{0.2, 0.3}, {0.7, 0.1}, {0.45, 0.55}};
+  for (const auto& x : xs) {
+    int e = -1;
+    ASSERT_EQ(cadinterp_locate(o->asset, x, &e, nullptr), CADINTERP_OK);
+    std::uint32_t nv = 0, nt = 0, nf = 0;
+    ASSERT_EQ(cadinterp_element_mesh_size(o->asset, e, &nv, &nt, &nf), CADINTERP_OK);
+    ASSERT_GT(nt, 0u);
+    // Sized before the call: K blocks of #T rows of the field's components.
+    std::vector<float> dstress(2 * std::size_t(nt) * std::size_t(info.components));
+    cadinterp_mesh_grad g;
+    ASSERT_EQ(cadinterp_grad(o->ws, x, &stress, 1, &g), CADINTERP_OK);
+    EXPECT_EQ(g.vertex_count, nv);
+    std::copy(g.dfields[0], g.dfields[0] + dstress.size(), dstress.begin());
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
+    EXPECT_EQ(m.vertex_count, nv);
+    EXPECT_EQ(m.tet_count, nt);
+    EXPECT_EQ(m.triangle_count, nf);
+  }
+  const double corner[2] = {0.99, 0.99};
+  int infeasible = -1;
+  ASSERT_EQ(cadinterp_locate(o->asset, corner, &infeasible, nullptr), CADINTERP_OK);
+  std::uint32_t nv = 7, nt = 7, nf = 7;
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, infeasible, &nv, &nt, &nf), CADINTERP_OK);
+  EXPECT_EQ(nv + nt + nf, 0u);
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, 0, nullptr, nullptr, nullptr), CADINTERP_OK);
+  nv = 7;
+  const int n = cadinterp_element_count(o->asset);
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, n, &nv, nullptr, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, -1, &nv, nullptr, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_element_mesh_size(nullptr, 0, &nv, nullptr, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(nv, 7u);
+}
+
 // Central differences of eval, inside one element (the cubic asset is C2 anyway).
 TEST(Runtime, GradMatchesFiniteDifferences) {
   const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Cubic));
