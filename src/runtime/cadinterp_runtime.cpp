@@ -288,6 +288,10 @@ cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double
   if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
   if (!out || !direction) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "out or direction is NULL");
   if (!std::isfinite(density)) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "density not finite");
+  // Checked here: a non-finite direction would make the frontal area NaN, which the overflow
+  // check would then blame on the asset's values.
+  if (!std::isfinite(direction[0]) || !std::isfinite(direction[1]) || !std::isfinite(direction[2]))
+    return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "direction not finite");
   CADINTERP_CATCH_BEGIN
   return evaluate_properties(ws, x, density, direction, out, grad);
   CADINTERP_CATCH_END(&ws->error)

@@ -427,6 +427,31 @@ TEST(Runtime, PropertiesAndTheirGradients) {
   }
 }
 
+// The caller's density and direction are checked before any work: a non-finite one is an invalid
+// argument, not an overflow of the asset's values.
+TEST(Runtime, PropertiesRefuseBadDensityAndDirection) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  const double x[2] = {0.3, 0.6}, dir[3] = {0, 0, 1};
+  const double nan_dir[3] = {0, std::nan(""), 1}, inf_dir[3] = {HUGE_VAL, 0, 0};
+  cadinterp_properties p, g[2];
+  std::memset(&p, 0x5a, sizeof p);
+  const cadinterp_properties before = p;
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, nullptr, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, std::nan(""), dir, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, HUGE_VAL, dir, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, nan_dir, &p, g), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("direction"), std::string::npos)
+      << cadinterp_workspace_error(o->ws);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, inf_dir, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(std::memcmp(&p, &before, sizeof p), 0) << "a failed properties_eval wrote its output";
+  ASSERT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, dir, &p, g), CADINTERP_OK);
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
+}
+
 TEST(Runtime, FailuresAreNamedAndLeaveOutputsUntouched) {
   SyntheticSpec s = spec(2, cadinterp::core::Degree::Linear);
   s.infeasible_corner = true;
