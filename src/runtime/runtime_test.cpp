@@ -572,6 +572,59 @@ TEST(Runtime, OpenRefusesFifosAndDirectoriesWithoutBlocking) {
   ::rmdir(dir);
 }
 
+// The argument and message rules cadinterp.h states, where no other test exercises them.
+TEST(Runtime, DocumentedArgumentAndMessageRules) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  EXPECT_STREQ(cadinterp_open_error(), "") << "a successful open clears the open message";
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "") << "a new workspace has no message";
+  EXPECT_STREQ(cadinterp_workspace_error(nullptr), "");
+  int major = -1, minor = -1;
+  EXPECT_EQ(cadinterp_asset_format(o->asset, nullptr, &minor), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_asset_format(o->asset, &major, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(major, -1);
+  EXPECT_EQ(minor, -1);
+  const double x[2] = {0.3, 0.4};
+  int feasible = -1;
+  EXPECT_EQ(cadinterp_locate(o->asset, x, nullptr, &feasible), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(feasible, -1);
+  cadinterp_region_info r;
+  EXPECT_EQ(cadinterp_region(o->asset, cadinterp_region_count(o->asset), &r),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_get_provenance(o->asset, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_set_cache_budget(nullptr, 0), CADINTERP_E_INVALID_ARGUMENT);
+  // The message is the most recent call's: a failure's text, then "" after a success.
+  cadinterp_mesh m;
+  const double outside[2] = {2, 0};
+  EXPECT_EQ(cadinterp_eval(o->ws, outside, nullptr, 0, &m), CADINTERP_E_OUTSIDE_DOMAIN);
+  EXPECT_STRNE(cadinterp_workspace_error(o->ws), "");
+  double dfdx[2];
+  EXPECT_EQ(cadinterp_vjp(o->ws, x, nullptr, nullptr, nullptr, 0, dfdx), CADINTERP_OK);
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
+}
+
+// A budget of 0 keeps the most recently used element only: every element switch decodes again,
+// with the same results.
+TEST(Runtime, ZeroCacheBudgetKeepsTheCurrentElement) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  const double xs[3][2] = {{0.1, 0.1}, {0.9, 0.8}, {0.1, 0.1}};
+  std::vector<std::vector<float>> first;
+  std::vector<int> elements;
+  for (const auto& x : xs) {
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
+    first.emplace_back(m.positions, m.positions + m.vertex_count * 3);
+    elements.push_back(m.element);
+  }
+  ASSERT_NE(elements[0], elements[1]);
+  ASSERT_EQ(cadinterp_set_cache_budget(o->asset, 0), CADINTERP_OK);
+  for (int i = 0; i < 3; ++i) {
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, xs[i], nullptr, 0, &m), CADINTERP_OK);
+    EXPECT_EQ(std::vector<float>(m.positions, m.positions + m.vertex_count * 3),
+              first[static_cast<std::size_t>(i)]);
+  }
+}
+
 TEST(Runtime, TinyCacheBudgetStillEvaluatesCorrectly) {
   const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
   std::mt19937_64 rng(4);
