@@ -439,7 +439,7 @@ class Asset {
    * per-vertex fields) of `vertices` only, per-tet fields of `tets` only, row i for id i of the
    * list; the topology and counts are the whole mesh's, as from eval. For viewers that draw the
    * boundary: the blend then touches a fraction of the mesh. Ids are checked against the element
-   * holding x (CADINTERP_E_OUT_OF_RANGE names the first bad one).
+   * holding x (CADINTERP_E_INVALID_ARGUMENT names the first bad one).
    * @param {{vertices?: Uint32Array|number[], tets?: Uint32Array|number[]}} subset
    */
   evalSubset(x, subset, fieldNames, opts = {}) {

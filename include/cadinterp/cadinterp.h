@@ -3,8 +3,12 @@
  *
  * C99, stable ABI. Conventions (apply to every function unless its comment says otherwise):
  * - Every fallible function returns a cadinterp_status; CADINTERP_OK is 0. On failure its outputs
- *   are left untouched and a message is available from cadinterp_workspace_error (calls that take
- *   a workspace) or cadinterp_open_error (cadinterp_open*).
+ *   are left untouched. Calls that take a workspace keep a message (cadinterp_workspace_error,
+ *   unless the workspace itself is NULL), and so do cadinterp_open* (cadinterp_open_error);
+ *   queries that take only an asset keep none: their status says it all.
+ * - A NULL asset or workspace, or a NULL pointer where a value is read or written, gives
+ *   CADINTERP_E_INVALID_ARGUMENT unless the parameter says "may be NULL"; functions that return a
+ *   count return 0 for a NULL asset.
  * - No C++ exception crosses this interface; out-of-memory is reported as a status.
  * - Thread-safety: an opened cadinterp_asset is immutable (but for its internal element cache,
  *   which is synchronized) and may be used by any number of threads at once. A
@@ -47,7 +51,7 @@ typedef enum cadinterp_status {
   CADINTERP_E_TRUNCATED = 6,           /**< the file is shorter than its header says */
   CADINTERP_E_CORRUPT_INDEX = 7,       /**< the index fails verification */
   CADINTERP_E_CHECKSUM = 8,            /**< stored bytes differ from their checksum */
-  CADINTERP_E_OUT_OF_RANGE = 9,        /**< a blob lies outside the file */
+  CADINTERP_E_OUT_OF_RANGE = 9,        /**< a blob lies outside the file (never a caller's index) */
   CADINTERP_E_LIMIT = 10,              /**< a count exceeds the reader's limits */
   CADINTERP_E_CORRUPT_BLOB = 11,       /**< mesh data fails to decode or holds invalid values */
   CADINTERP_E_OUTSIDE_DOMAIN = 12,     /**< x is outside the parameter box (or not finite) */
@@ -69,9 +73,11 @@ typedef struct cadinterp_workspace cadinterp_workspace;
 CADINTERP_API const char* cadinterp_version(void);
 /** CADINTERP_VERSION_NUMBER of the library actually linked. Thread-safe. */
 CADINTERP_API unsigned cadinterp_version_number(void);
-/** Newest asset format this library reads: major and minor (either pointer may be NULL). */
+/** Newest asset format this library reads: major and minor (either pointer may be NULL: that
+ *  value is not written). Thread-safe. */
 CADINTERP_API void cadinterp_format_version(int* major, int* minor);
-/** Fixed English text of a status (static storage; never NULL). Thread-safe. */
+/** Fixed English text of a status (static storage; never NULL; "unknown status" for a value
+ *  this library does not define). Thread-safe. */
 CADINTERP_API const char* cadinterp_status_string(cadinterp_status status);
 
 /* ---- Opening ------------------------------------------------------------------------------- */
@@ -79,31 +85,47 @@ CADINTERP_API const char* cadinterp_status_string(cadinterp_status status);
 /**
  * Opens the asset file at `path` by memory-mapping it. Only the header and the index are read
  * and verified; meshes are decoded on demand, one element at a time. Cost is independent of the
- * size of the mesh data.
+ * size of the mesh data. The file is mapped, not copied: it must not be changed or truncated
+ * while the asset is open.
+ * Thread-safe: any number of threads may open assets at once (the message is per thread).
  * @param[in]  path  file name (NUL-terminated)
  * @param[out] out   the asset on success; untouched on failure
- * @return CADINTERP_OK or an error (message: cadinterp_open_error on this thread)
+ * @return CADINTERP_OK or an error (message: cadinterp_open_error on this thread):
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument; CADINTERP_E_IO if the file cannot be
+ *         opened or mapped, or is not a regular file (a directory, a FIFO, a device: refused
+ *         without reading from it or waiting for a writer); the format errors of the header
+ *         and the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT); CADINTERP_E_OUT_OF_MEMORY
  */
 CADINTERP_API cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out);
 
 /**
- * Opens an asset held in memory.
- * @param[in]  data  `size` bytes of a .cadi file
+ * Opens an asset held in memory, as cadinterp_open does a file.
+ * @param[in]  data  `size` bytes of a .cadi file (not NULL, even when size is 0)
  * @param[in]  copy  nonzero: the bytes are copied; zero: the caller keeps them alive and unchanged
  *                   until cadinterp_close
  * @param[out] out   the asset on success; untouched on failure
+ * @return CADINTERP_OK or an error (message: cadinterp_open_error on this thread):
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument; the format errors of the header and
+ *         the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT); CADINTERP_E_OUT_OF_MEMORY.
+ * Thread-safe, as cadinterp_open.
  */
 CADINTERP_API cadinterp_status cadinterp_open_memory(const void* data, size_t size, int copy,
                                                      cadinterp_asset** out);
 
-/** Message of this thread's last failed cadinterp_open* ("" if none); valid until the next open
- *  call on this thread. */
+/** Message of this thread's most recent cadinterp_open* call: its failure's text, or "" after a
+ *  success (and before any call), as SQLite's sqlite3_errmsg. Thread-local storage, valid until
+ *  the next cadinterp_open* call on this thread. Thread-safe (never NULL). */
 CADINTERP_API const char* cadinterp_open_error(void);
 
-/** Closes an asset; NULL is a no-op. Every workspace of the asset must be destroyed first. */
+/** Closes an asset and frees it; NULL is a no-op. Every workspace of the asset must be destroyed
+ *  first, and no other call may use the asset concurrently or afterwards: every string and array
+ *  the asset returned becomes invalid. */
 CADINTERP_API void cadinterp_close(cadinterp_asset* asset);
 
-/* ---- Queries (thread-safe; strings live until cadinterp_close) ---------------------------- */
+/* ---- Queries ---------------------------------------------------------------------------------
+ * Every query is thread-safe (it reads the immutable index, or the synchronized cache), writes
+ * its outputs only on success, and returns strings and arrays owned by the asset, valid until
+ * cadinterp_close. */
 
 /** Number of parameters K (1..8), or 0 if asset is NULL. */
 CADINTERP_API int cadinterp_dim(const cadinterp_asset* asset);
@@ -111,7 +133,8 @@ CADINTERP_API int cadinterp_dim(const cadinterp_asset* asset);
 CADINTERP_API int cadinterp_degree(const cadinterp_asset* asset);
 /** Number of elements of the K-d tree, 0 if asset is NULL. */
 CADINTERP_API int cadinterp_element_count(const cadinterp_asset* asset);
-/** Format version of this asset's file. */
+/** Format version of this asset's file: major and minor, both required (unlike
+ *  cadinterp_format_version); CADINTERP_E_INVALID_ARGUMENT if any argument is NULL. */
 CADINTERP_API cadinterp_status cadinterp_asset_format(const cadinterp_asset* asset, int* major,
                                                       int* minor);
 
@@ -121,7 +144,8 @@ typedef struct cadinterp_parameter_info {
   double lower, upper; /**< the parameter's range */
 } cadinterp_parameter_info;
 
-/** Parameter i (0 <= i < K). */
+/** Parameter i (0 <= i < K): name and unit ("" if none) owned by the asset, and its range.
+ *  CADINTERP_E_INVALID_ARGUMENT for a NULL argument or i out of range. */
 CADINTERP_API cadinterp_status cadinterp_parameter(const cadinterp_asset* asset, int i,
                                                    cadinterp_parameter_info* out);
 
@@ -139,7 +163,8 @@ typedef struct cadinterp_field_info {
 
 /** Number of fields (e.g. temperature, von Mises stress). */
 CADINTERP_API int cadinterp_field_count(const cadinterp_asset* asset);
-/** Field i (0 <= i < field count). */
+/** Field i (0 <= i < field count); the name is owned by the asset. CADINTERP_E_INVALID_ARGUMENT
+ *  for a NULL argument or i out of range. */
 CADINTERP_API cadinterp_status cadinterp_field(const cadinterp_asset* asset, int i,
                                                cadinterp_field_info* out);
 /**
@@ -154,7 +179,9 @@ CADINTERP_API cadinterp_status cadinterp_field(const cadinterp_asset* asset, int
  */
 CADINTERP_API cadinterp_status cadinterp_field_unit(const cadinterp_asset* asset, int i,
                                                     const char** unit);
-/** Index of the field called `name`, CADINTERP_E_NOT_FOUND if none. */
+/** Index of the field called `name` (exact, case-sensitive match). CADINTERP_E_NOT_FOUND if
+ *  there is none, CADINTERP_E_INVALID_ARGUMENT for a NULL argument; `*index` untouched on
+ *  failure. */
 CADINTERP_API cadinterp_status cadinterp_find_field(const cadinterp_asset* asset, const char* name,
                                                     int* index);
 
@@ -165,8 +192,15 @@ typedef struct cadinterp_region_info {
   int face_tag_count;
 } cadinterp_region_info;
 
-/** Number of boundary-condition regions. */
+/** Number of boundary-condition regions (0 if asset is NULL). */
 CADINTERP_API int cadinterp_region_count(const cadinterp_asset* asset);
+/**
+ * Region i (0 <= i < cadinterp_region_count(asset)). Its name, kind ("" if the host gave none)
+ * and face tags are owned by the asset, valid until cadinterp_close; face_tags may be NULL when
+ * face_tag_count is 0.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument or i out of range
+ *         (`*out` untouched). Thread-safety: safe.
+ */
 CADINTERP_API cadinterp_status cadinterp_region(const cadinterp_asset* asset, int i,
                                                 cadinterp_region_info* out);
 
@@ -176,6 +210,12 @@ typedef struct cadinterp_provenance {
   const char* options; /**< the build options, JSON */
 } cadinterp_provenance;
 
+/**
+ * How the asset was built, as the builder recorded it: three NUL-terminated strings owned by the
+ * asset, valid until cadinterp_close ("" for any the asset does not record).
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument (`*out` untouched).
+ * Thread-safety: safe.
+ */
 CADINTERP_API cadinterp_status cadinterp_get_provenance(const cadinterp_asset* asset,
                                                         cadinterp_provenance* out);
 
@@ -183,15 +223,37 @@ CADINTERP_API cadinterp_status cadinterp_get_provenance(const cadinterp_asset* a
  * The element holding x, and whether it can be evaluated. Points on faces between elements are
  * assigned deterministically (to the upper side).
  * @param[in]  x        K values
- * @param[out] element  element index
+ * @param[out] element  element index (required: NULL gives CADINTERP_E_INVALID_ARGUMENT)
  * @param[out] feasible 1 if eval at x succeeds, 0 if x is in an infeasible element (may be NULL)
- * @return CADINTERP_E_OUTSIDE_DOMAIN if x is outside the box or not finite
+ * @return CADINTERP_OK; CADINTERP_E_OUTSIDE_DOMAIN if x is outside the box or not finite;
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL asset, x or element. Outputs untouched on
+ *         failure. Thread-safety: safe.
  */
 CADINTERP_API cadinterp_status cadinterp_locate(const cadinterp_asset* asset, const double* x,
                                                 int* element, int* feasible);
 
+/**
+ * The mesh sizes of element `element` (as cadinterp_locate returns it), read from the index
+ * without decoding anything: the #V, #T and #F that cadinterp_eval, cadinterp_eval_subset and
+ * cadinterp_grad report for any x in the element. For sizing per-vertex and per-tet arrays
+ * before a call, notably cadinterp_grad's dfields (cadinterp_mesh_grad has no tet count). An
+ * infeasible element has no meshes: all three are 0.
+ * @param[in]  element         0 <= element < cadinterp_element_count(asset)
+ * @param[out] vertex_count    #V (may be NULL)
+ * @param[out] tet_count       #T (may be NULL)
+ * @param[out] triangle_count  #F (may be NULL)
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT if asset is NULL or element is out of range
+ *         (outputs untouched). Thread-safety: safe (reads the immutable index).
+ */
+CADINTERP_API cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset* asset,
+                                                           int element, uint32_t* vertex_count,
+                                                           uint32_t* tet_count,
+                                                           uint32_t* triangle_count);
+
 /** The builder's error estimate of the element holding x (relative to the model's bounding-box
- *  diagonal; negative if the builder did not measure it). */
+ *  diagonal; negative if the builder did not measure it). CADINTERP_E_OUTSIDE_DOMAIN as
+ *  cadinterp_locate, CADINTERP_E_INVALID_ARGUMENT for a NULL argument; `*error` untouched on
+ *  failure. Thread-safety: safe. */
 CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* asset,
                                                         const double* x, double* error);
 
@@ -201,7 +263,8 @@ CADINTERP_API int cadinterp_infeasible_point_count(const cadinterp_asset* asset)
  * Infeasible point i (0 <= i < count) as the builder recorded it.
  * @param[out] x        K doubles, real parameter coordinates
  * @param[out] message  the host's message (may be NULL; valid until cadinterp_close)
- * Thread-safety: safe.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL asset or x, or i out of range
+ *         (outputs untouched). Thread-safety: safe.
  */
 CADINTERP_API cadinterp_status cadinterp_infeasible_point(const cadinterp_asset* asset, int i,
                                                           double* x, const char** message);
@@ -211,22 +274,43 @@ CADINTERP_API cadinterp_status cadinterp_infeasible_point(const cadinterp_asset*
  * elements are dropped beyond it; an element in use by a workspace stays alive until released.
  * A topology shared by several elements counts once; an element's field arrays are decoded (and
  * counted) on the first call that reads fields; the buffers of one dropped element may be kept
- * outside the budget for reuse by the next decode.
+ * outside the budget for reuse by the next decode. The cache always keeps the most recently
+ * used element, whatever the budget: 0 means "only that one" (every switch to another element
+ * decodes again), not "no limit".
+ * @return CADINTERP_OK (the new budget applies at once: elements beyond it are dropped);
+ *         CADINTERP_E_INVALID_ARGUMENT if asset is NULL.
+ * Thread-safety: safe, also while other threads evaluate with workspaces of the asset (the cache
+ * is synchronized). The budget lasts until the next call or cadinterp_close.
  */
 CADINTERP_API cadinterp_status cadinterp_set_cache_budget(cadinterp_asset* asset, size_t bytes);
 
-/* ---- Evaluation (one thread at a time per workspace) --------------------------------------- */
+/* ---- Evaluation ------------------------------------------------------------------------------
+ * One thread at a time per workspace; any number of workspaces of one asset may evaluate at
+ * once. Each call sets the workspace's message (cadinterp_workspace_error): "" on success. The
+ * decoding errors of an element (CADINTERP_E_CHECKSUM, CADINTERP_E_CORRUPT_BLOB) are reported by
+ * every call that needs the data that fails: an element's field arrays are decoded apart from
+ * its shape, so a bad field array fails only the calls that read fields. A result that is not
+ * finite (the asset's values overflow single precision when blended) is refused with
+ * CADINTERP_E_CORRUPT_BLOB rather than handed out. */
 
-/** Creates a workspace for `asset` (which must outlive it). */
+/** Creates a workspace for `asset` (which must outlive it). `*out` is owned by the caller: free
+ *  it with cadinterp_workspace_destroy. CADINTERP_E_INVALID_ARGUMENT for a NULL argument,
+ *  CADINTERP_E_OUT_OF_MEMORY; `*out` untouched on failure. Thread-safe (the asset may be in use
+ *  by other threads). */
 CADINTERP_API cadinterp_status cadinterp_workspace_create(const cadinterp_asset* asset,
                                                           cadinterp_workspace** out);
-/** Destroys a workspace; NULL is a no-op. */
+/** Destroys a workspace; NULL is a no-op. Not concurrently with another call using it; every
+ *  pointer it returned (meshes, gradients, its message) becomes invalid. */
 CADINTERP_API void cadinterp_workspace_destroy(cadinterp_workspace* ws);
-/** Message of the last failed call made with `ws` ("" if none); valid until the next call. */
+/** Message of the most recent call made with `ws`: its failure's text, or "" if it succeeded
+ *  (and before any call), as SQLite's sqlite3_errmsg; "" for a NULL ws. Owned by the workspace,
+ *  valid until the next call with it or its destruction. Never NULL. Same thread rule as the
+ *  other calls on the workspace. */
 CADINTERP_API const char* cadinterp_workspace_error(const cadinterp_workspace* ws);
 
-/** An evaluated mesh. Topology points into the workspace's reference to the element (valid
- *  until the next call with the workspace); arrays likewise. */
+/** An evaluated mesh. Every pointer is owned by the workspace: the topology through its
+ *  reference to the element, the positions and fields in its scratch; all are valid until the
+ *  next call with the workspace or its destruction (copy what must outlive them). */
 typedef struct cadinterp_mesh {
   int element;                  /**< the element holding x */
   uint32_t vertex_count;        /**< #V */
@@ -244,9 +328,15 @@ typedef struct cadinterp_mesh {
  * Evaluates the shape and the requested fields at x (paper Eq. 3: the element's samples blended
  * with weights psi_k(x)).
  * @param[in]  x            K parameter values
- * @param[in]  fields       indices of the fields to evaluate (may be NULL if field_count is 0)
- * @param[out] out          the mesh; untouched on failure
- * @return CADINTERP_E_OUTSIDE_DOMAIN, CADINTERP_E_INFEASIBLE, decoding errors, ...
+ * @param[in]  fields       indices of the fields to evaluate, in any order, repeats allowed
+ *                          (may be NULL if field_count is 0)
+ * @param[out] out          the mesh; untouched on failure. Its arrays are owned by the workspace
+ *                          (see cadinterp_mesh)
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL ws (no message), out or x, a
+ *         negative field_count, NULL fields with a nonzero count, or a field index out of range;
+ *         CADINTERP_E_OUTSIDE_DOMAIN if x is outside the box or not finite;
+ *         CADINTERP_E_INFEASIBLE if x lies in an infeasible element (cadinterp_locate tells);
+ *         the decoding and overflow errors of the section comment; CADINTERP_E_OUT_OF_MEMORY.
  */
 CADINTERP_API cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const double* x,
                                               const int* fields, int field_count,
@@ -264,12 +354,12 @@ CADINTERP_API cadinterp_status cadinterp_eval(cadinterp_workspace* ws, const dou
  * tet_subset_count rows (per-tet fields, row i: tets[i]) of its components. Ids may repeat and
  * come in any order. Rows equal cadinterp_eval's up to float rounding: bit for bit with the
  * portable kernel (WebAssembly); on x86-64 with AVX2 the whole-mesh kernel fuses multiply-adds.
- * The ids are checked against the element holding x (its #V and #T, which
- * only a previous call can tell: cadinterp_eval, or this one with empty subsets).
+ * The ids are checked against the element holding x: its #V and #T, which
+ * cadinterp_element_mesh_size gives for the element cadinterp_locate returns.
  * @param[in]  vertices  vertex ids (may be NULL if vertex_subset_count is 0)
  * @param[in]  tets      tet ids (may be NULL if tet_subset_count is 0)
- * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count,
- *         CADINTERP_E_OUT_OF_RANGE for an id >= #V (or #T) of the element holding x
+ * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count
+ *         and for an id >= #V (or #T) of the element holding x (the message names the first)
  */
 CADINTERP_API cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, const double* x,
                                                      const uint32_t* vertices,
@@ -278,7 +368,8 @@ CADINTERP_API cadinterp_status cadinterp_eval_subset(cadinterp_workspace* ws, co
                                                      const int* fields, int field_count,
                                                      cadinterp_mesh* out);
 
-/** Derivatives of an evaluated mesh with respect to the parameters (Eq. 13). */
+/** Derivatives of an evaluated mesh with respect to the parameters (Eq. 13). It carries no
+ *  tet count: per-tet arrays are sized with cadinterp_element_mesh_size (g.element). */
 typedef struct cadinterp_mesh_grad {
   int element;
   uint32_t vertex_count;
@@ -292,8 +383,17 @@ typedef struct cadinterp_mesh_grad {
 
 /**
  * The positions and their K derivative arrays (and the derivatives of the requested fields) at
- * x, in one pass over the stored samples. Cubic assets are C2 in x; linear assets are
- * continuous, and their derivative is taken from the element holding x.
+ * x, in one pass over the stored samples. Cubic assets are C2 in x. Linear assets are only C0:
+ * the derivative is not constant inside an element (each psi_k is a sum of linear B-splines of
+ * several levels, paper §4.2, and the finer ones have kinks inside the element) and jumps at
+ * every kink and at faces between elements;
+ * at a kink this returns one of the one-sided derivatives, on a face between elements that of
+ * the element holding x (cadinterp_locate).
+ * @param[in]  fields  as cadinterp_eval
+ * @param[out] out     untouched on failure; its arrays are owned by the workspace, valid until
+ *                     the next call with it. Per-tet field derivatives have K * #T * components
+ *                     values: #T from cadinterp_element_mesh_size(asset, out->element, ...).
+ * @return as cadinterp_eval.
  */
 CADINTERP_API cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const double* x,
                                               const int* fields, int field_count,
@@ -303,9 +403,15 @@ CADINTERP_API cadinterp_status cadinterp_grad(cadinterp_workspace* ws, const dou
  * Vector-Jacobian product for optimizers: given dF/dP (#V by 3, the adjoint of the positions of
  * the mesh eval returns at x) and optionally the adjoints of requested fields, returns
  * dF/dx (K values) without forming the K derivative arrays.
- * @param[in]  dF_dpositions  #V by 3 (may be NULL: zero)
- * @param[in]  dF_dfields     per requested field, its adjoint array or NULL (may be NULL)
- * @param[out] dF_dx          K values
+ * @param[in]  dF_dpositions  #V by 3 for the element holding x (may be NULL: zero)
+ * @param[in]  fields         as cadinterp_eval (checked even when dF_dfields is NULL)
+ * @param[in]  dF_dfields     field_count pointers: per requested field, its adjoint laid out as
+ *                            cadinterp_eval returns that field, or NULL (zero). May itself be
+ *                            NULL: no field adjoints (the field arrays are then not decoded)
+ * @param[out] dF_dx          K values; untouched on failure
+ * @return as cadinterp_eval (CADINTERP_E_INVALID_ARGUMENT also for a NULL dF_dx). The adjoint
+ *         arrays are read, not checked: sizes follow the element holding x
+ *         (cadinterp_element_mesh_size).
  */
 CADINTERP_API cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x,
                                              const float* dF_dpositions, const int* fields,
@@ -325,10 +431,16 @@ typedef struct cadinterp_properties {
 
 /**
  * Derived quantities of the mesh at x, and optionally their derivatives with respect to x.
- * @param[in]  density    uniform density for mass and inertia
- * @param[in]  direction  3 values, the (unit) direction for the frontal area
- * @param[out] out        the quantities
- * @param[out] grad       NULL, or K structs: grad[d] holds the derivatives along x_d
+ * Centroid and inertia are NaN for a mesh of zero volume (they divide by it); the other members
+ * are finite on success.
+ * @param[in]  density    uniform density for mass and inertia (finite; any sign)
+ * @param[in]  direction  3 finite values, the direction for the frontal area; used as given: a
+ *                        non-unit direction scales the frontal area by its length
+ * @param[out] out        the quantities; untouched on failure
+ * @param[out] grad       NULL, or K structs: grad[d] holds the derivatives along x_d; untouched
+ *                        on failure
+ * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT also for a NULL out or direction, or a
+ *         density or direction value that is NaN or infinite (checked before x).
  */
 CADINTERP_API cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double* x,
                                                          double density, const double* direction,

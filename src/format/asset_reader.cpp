@@ -178,7 +178,9 @@ AssetReader::~AssetReader() {
 
 std::unique_ptr<AssetReader> AssetReader::open_file(const std::string& path,
                                                     const ReadLimits& limits) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO without a writer (or a device) would otherwise wait forever; the
+  // fstat below refuses anything but a regular file, for which the flag changes nothing.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (fd < 0) throw FormatError(Status::Io, "cannot open " + path + ": " + std::strerror(errno));
   struct stat st {};
   if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {

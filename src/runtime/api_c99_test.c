@@ -44,6 +44,11 @@ int main(void) {
     CHECK(cadinterp_eval_subset(NULL, x, ids, 1, NULL, 0, NULL, 0, &m) ==
           CADINTERP_E_INVALID_ARGUMENT);
   }
+  {
+    uint32_t nv = 7;
+    CHECK(cadinterp_element_mesh_size(NULL, 0, &nv, NULL, NULL) == CADINTERP_E_INVALID_ARGUMENT);
+    CHECK(nv == 7);
+  }
   cadinterp_close(NULL);
   cadinterp_workspace_destroy(NULL);
 

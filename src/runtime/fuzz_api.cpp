@@ -564,7 +564,7 @@ void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCop
     const std::uint32_t past = V;
     poison(&sub);
     st = cadinterp_eval_subset(ws, x, &past, 1, nullptr, 0, nullptr, 0, &sub);
-    CHECK(st == CADINTERP_E_OUT_OF_RANGE || st == CADINTERP_E_CHECKSUM ||
+    CHECK(st == CADINTERP_E_INVALID_ARGUMENT || st == CADINTERP_E_CHECKSUM ||
               st == CADINTERP_E_CORRUPT_BLOB,
           "eval_subset with vertex #V: %s", name(st));
     CHECK(poisoned(&sub), "eval_subset wrote its output on failure");
@@ -654,11 +654,13 @@ void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCop
   for (auto& pg : pgrad) poison(&pg);
   st = cadinterp_properties_eval(ws, x, s.density, s.direction, &props,
                                  s.property_grads ? pgrad.data() : nullptr);
-  const bool density_ok = std::isfinite(s.density);
+  // A non-finite density or direction is the caller's invalid argument.
+  bool properties_args_ok = std::isfinite(s.density);
+  for (double c : s.direction) properties_args_ok = properties_args_ok && std::isfinite(c);
   // Mass properties may overflow where the mesh does not (a huge density, or gradients over a
   // tiny parameter range): that refusal names itself.
-  CHECK(st == (density_ok ? base : CADINTERP_E_INVALID_ARGUMENT) ||
-            (density_ok && base == CADINTERP_OK && overflowed(st)),
+  CHECK(st == (properties_args_ok ? base : CADINTERP_E_INVALID_ARGUMENT) ||
+            (properties_args_ok && base == CADINTERP_OK && overflowed(st)),
         "properties_eval: %s, eval %s", name(st), name(base));
   if (st == CADINTERP_OK) {
     // With a moderate density and direction, volume, mass and areas are sums of products of

@@ -1,6 +1,10 @@
 # libcadinterp: the C ABI. Only CADINTERP_API symbols are exported (visibility preset hidden);
 # the static internals (core, format, codecs, kernels) are linked in privately.
-add_library(cadinterp SHARED ${CMAKE_CURRENT_LIST_DIR}/cadinterp_runtime.cpp
+add_library(cadinterp SHARED
+  ${CMAKE_CURRENT_LIST_DIR}/cadinterp_runtime.cpp   # the C ABI layer
+  ${CMAKE_CURRENT_LIST_DIR}/runtime_objects.cpp     # the asset and workspace objects
+  ${CMAKE_CURRENT_LIST_DIR}/element_cache.cpp       # decoded elements under a byte budget
+  ${CMAKE_CURRENT_LIST_DIR}/evaluate.cpp            # eval, grad, vjp, properties over the kernels
   ${CMAKE_CURRENT_LIST_DIR}/blend_multi.cpp)
 target_include_directories(cadinterp PUBLIC ${PROJECT_SOURCE_DIR}/include)
 target_compile_definitions(cadinterp PRIVATE CADINTERP_BUILDING_LIBRARY)

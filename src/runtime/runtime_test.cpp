@@ -1,12 +1,18 @@
 // The C ABI end to end on synthetic assets: queries, eval against the basis and against the
 // analytic host, gradients against finite differences, the vector-Jacobian product, mass
 // properties and their gradients, and the failure statuses.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <future>
 #include <random>
 #include <set>
 #include <string>
@@ -15,6 +21,7 @@
 #include "cadinterp_generated.h"
 #include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
+#include "runtime/capi_guard.h"
 #include "runtime/mesh_metrics.h"
 
 namespace {
@@ -245,12 +252,13 @@ TEST(Runtime, EvalSubsetRefusesBadIdsAndLeavesItsOutputUntouched) {
   const cadinterp_mesh before = m;
   const int fields[1] = {1};
   const std::uint32_t good[2] = {0, nv - 1}, bad_v[3] = {0, nv, 1}, bad_t[1] = {nt};
+  // A bad id is the caller's argument (CADINTERP_E_OUT_OF_RANGE names a blob outside the file).
   EXPECT_EQ(cadinterp_eval_subset(o->ws, x, bad_v, 3, nullptr, 0, nullptr, 0, &m),
-            CADINTERP_E_OUT_OF_RANGE);
+            CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("vertices[1]"), std::string::npos)
       << cadinterp_workspace_error(o->ws);
   EXPECT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, bad_t, 1, fields, 1, &m),
-            CADINTERP_E_OUT_OF_RANGE);
+            CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("tets[0]"), std::string::npos);
   EXPECT_EQ(cadinterp_eval_subset(o->ws, x, nullptr, 2, nullptr, 0, nullptr, 0, &m),
             CADINTERP_E_INVALID_ARGUMENT);
@@ -271,6 +279,53 @@ TEST(Runtime, EvalSubsetRefusesBadIdsAndLeavesItsOutputUntouched) {
   EXPECT_EQ(std::memcmp(&m, &before, sizeof m), 0) << "a failed eval_subset wrote its output";
   ASSERT_EQ(cadinterp_eval_subset(o->ws, x, good, 2, nullptr, 0, nullptr, 0, &m), CADINTERP_OK);
   EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
+}
+
+// Per-tet gradient arrays can be sized before any eval: locate, then the element's mesh size.
+TEST(Runtime, ElementMeshSizeSizesGradArraysBeforeEval) {
+  SyntheticSpec s = spec(2, cadinterp::core::Degree::Linear);
+  s.infeasible_corner = true;
+  const auto o = open_synthetic(s);
+  int stress = -1;
+  ASSERT_EQ(cadinterp_find_field(o->asset, "stress", &stress), CADINTERP_OK);
+  cadinterp_field_info info;
+  ASSERT_EQ(cadinterp_field(o->asset, stress, &info), CADINTERP_OK);
+  ASSERT_EQ(info.location, CADINTERP_PER_TET);
+  const double xs[3][2] = {{0.2, 0.3}, {0.7, 0.1}, {0.45, 0.55}};
+  for (const auto& x : xs) {
+    int e = -1;
+    ASSERT_EQ(cadinterp_locate(o->asset, x, &e, nullptr), CADINTERP_OK);
+    std::uint32_t nv = 0, nt = 0, nf = 0;
+    ASSERT_EQ(cadinterp_element_mesh_size(o->asset, e, &nv, &nt, &nf), CADINTERP_OK);
+    ASSERT_GT(nt, 0u);
+    // Sized before the call: K blocks of #T rows of the field's components.
+    std::vector<float> dstress(2 * std::size_t(nt) * std::size_t(info.components));
+    cadinterp_mesh_grad g;
+    ASSERT_EQ(cadinterp_grad(o->ws, x, &stress, 1, &g), CADINTERP_OK);
+    EXPECT_EQ(g.vertex_count, nv);
+    std::copy(g.dfields[0], g.dfields[0] + dstress.size(), dstress.begin());
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
+    EXPECT_EQ(m.vertex_count, nv);
+    EXPECT_EQ(m.tet_count, nt);
+    EXPECT_EQ(m.triangle_count, nf);
+  }
+  const double corner[2] = {0.99, 0.99};
+  int infeasible = -1;
+  ASSERT_EQ(cadinterp_locate(o->asset, corner, &infeasible, nullptr), CADINTERP_OK);
+  std::uint32_t nv = 7, nt = 7, nf = 7;
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, infeasible, &nv, &nt, &nf), CADINTERP_OK);
+  EXPECT_EQ(nv + nt + nf, 0u);
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, 0, nullptr, nullptr, nullptr), CADINTERP_OK);
+  nv = 7;
+  const int n = cadinterp_element_count(o->asset);
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, n, &nv, nullptr, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_element_mesh_size(o->asset, -1, &nv, nullptr, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_element_mesh_size(nullptr, 0, &nv, nullptr, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(nv, 7u);
 }
 
 // Central differences of eval, inside one element (the cubic asset is C2 anyway).
@@ -372,6 +427,31 @@ TEST(Runtime, PropertiesAndTheirGradients) {
   }
 }
 
+// The caller's density and direction are checked before any work: a non-finite one is an invalid
+// argument, not an overflow of the asset's values.
+TEST(Runtime, PropertiesRefuseBadDensityAndDirection) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  const double x[2] = {0.3, 0.6}, dir[3] = {0, 0, 1};
+  const double nan_dir[3] = {0, std::nan(""), 1}, inf_dir[3] = {HUGE_VAL, 0, 0};
+  cadinterp_properties p, g[2];
+  std::memset(&p, 0x5a, sizeof p);
+  const cadinterp_properties before = p;
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, nullptr, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, std::nan(""), dir, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, HUGE_VAL, dir, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, nan_dir, &p, g), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("direction"), std::string::npos)
+      << cadinterp_workspace_error(o->ws);
+  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, inf_dir, &p, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(std::memcmp(&p, &before, sizeof p), 0) << "a failed properties_eval wrote its output";
+  ASSERT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, dir, &p, g), CADINTERP_OK);
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
+}
+
 TEST(Runtime, FailuresAreNamedAndLeaveOutputsUntouched) {
   SyntheticSpec s = spec(2, cadinterp::core::Degree::Linear);
   s.infeasible_corner = true;
@@ -413,6 +493,136 @@ TEST(Runtime, OpenReportsNamedErrors) {
   b = o->bytes;
   b.resize(b.size() / 2);
   EXPECT_EQ(cadinterp_open_memory(b.data(), b.size(), 1, &a), CADINTERP_E_TRUNCATED);
+}
+
+// A guarded body's status and message for the exception it throws.
+template <class E>
+cadinterp_status guarded_throw(const E& e, std::string* error) {
+  CADINTERP_CATCH_BEGIN
+  throw e;
+  CADINTERP_CATCH_END(error)
+}
+
+bool map_range_errors(cadinterp_status* status, std::string* error) {
+  try {
+    throw;
+  } catch (const std::out_of_range& e) {
+    *status = CADINTERP_E_INVALID_ARGUMENT;
+    if (error) *error = e.what();
+    return true;
+  } catch (...) {
+    return false;
+  }
+}
+
+cadinterp_status guarded_mapped_throw(const std::exception& e, std::string* error) {
+  CADINTERP_CATCH_BEGIN
+  if (dynamic_cast<const std::out_of_range*>(&e)) throw std::out_of_range(e.what());
+  throw std::runtime_error(e.what());
+  CADINTERP_CATCH_END_MAP(error, map_range_errors)
+}
+
+TEST(CapiGuard, MapsEachExceptionToItsStatusAndMessage) {
+  std::string error;
+  EXPECT_EQ(guarded_throw(
+                cadinterp::format::FormatError(cadinterp::format::Status::Truncated, "short file"),
+                &error),
+            CADINTERP_E_TRUNCATED);
+  EXPECT_EQ(error, "short file");
+  EXPECT_EQ(guarded_throw(std::bad_alloc(), &error), CADINTERP_E_OUT_OF_MEMORY);
+  EXPECT_EQ(error, "out of memory");
+  EXPECT_EQ(guarded_throw(std::logic_error("boom"), &error), CADINTERP_E_INTERNAL);
+  EXPECT_EQ(error, "internal error: boom");
+  EXPECT_EQ(guarded_throw(42, &error), CADINTERP_E_INTERNAL);
+  EXPECT_EQ(error, "internal error: unknown exception");
+  EXPECT_EQ(guarded_throw(std::bad_alloc(), nullptr), CADINTERP_E_OUT_OF_MEMORY);
+  EXPECT_EQ(guarded_mapped_throw(std::out_of_range("index 9"), &error),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(error, "index 9");
+  EXPECT_EQ(guarded_mapped_throw(std::runtime_error("other"), &error), CADINTERP_E_INTERNAL);
+  EXPECT_EQ(error, "internal error: other");
+}
+
+// Opening a FIFO without a writer must not wait for one: open refuses anything but a regular file
+// before reading it. Should open block, the test writes to the FIFO to release it, then fails.
+TEST(Runtime, OpenRefusesFifosAndDirectoriesWithoutBlocking) {
+  char dir[] = "/tmp/cadinterp_fifo_XXXXXX";
+  ASSERT_NE(::mkdtemp(dir), nullptr);
+  const std::string fifo = std::string(dir) + "/asset.cadi";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  cadinterp_asset* a = nullptr;
+  auto opened = std::async(std::launch::async, [&] {
+    const cadinterp_status s = cadinterp_open(fifo.c_str(), &a);
+    return std::make_pair(s, std::string(cadinterp_open_error()));
+  });
+  if (opened.wait_for(std::chrono::seconds(10)) != std::future_status::ready) {
+    const int w = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (w >= 0) ::close(w);
+    ADD_FAILURE() << "cadinterp_open blocked on a FIFO without a writer";
+  }
+  const auto [status, message] = opened.get();
+  EXPECT_EQ(status, CADINTERP_E_IO);
+  EXPECT_NE(message.find("not a readable regular file"), std::string::npos) << message;
+  EXPECT_EQ(a, nullptr);
+  EXPECT_EQ(cadinterp_open(dir, &a), CADINTERP_E_IO);
+  EXPECT_NE(std::string(cadinterp_open_error()).find("not a readable regular file"),
+            std::string::npos);
+  EXPECT_EQ(a, nullptr);
+  ::unlink(fifo.c_str());
+  ::rmdir(dir);
+}
+
+// The argument and message rules cadinterp.h states, where no other test exercises them.
+TEST(Runtime, DocumentedArgumentAndMessageRules) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  EXPECT_STREQ(cadinterp_open_error(), "") << "a successful open clears the open message";
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "") << "a new workspace has no message";
+  EXPECT_STREQ(cadinterp_workspace_error(nullptr), "");
+  int major = -1, minor = -1;
+  EXPECT_EQ(cadinterp_asset_format(o->asset, nullptr, &minor), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_asset_format(o->asset, &major, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(major, -1);
+  EXPECT_EQ(minor, -1);
+  const double x[2] = {0.3, 0.4};
+  int feasible = -1;
+  EXPECT_EQ(cadinterp_locate(o->asset, x, nullptr, &feasible), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(feasible, -1);
+  cadinterp_region_info r;
+  EXPECT_EQ(cadinterp_region(o->asset, cadinterp_region_count(o->asset), &r),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_get_provenance(o->asset, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_set_cache_budget(nullptr, 0), CADINTERP_E_INVALID_ARGUMENT);
+  // The message is the most recent call's: a failure's text, then "" after a success.
+  cadinterp_mesh m;
+  const double outside[2] = {2, 0};
+  EXPECT_EQ(cadinterp_eval(o->ws, outside, nullptr, 0, &m), CADINTERP_E_OUTSIDE_DOMAIN);
+  EXPECT_STRNE(cadinterp_workspace_error(o->ws), "");
+  double dfdx[2];
+  EXPECT_EQ(cadinterp_vjp(o->ws, x, nullptr, nullptr, nullptr, 0, dfdx), CADINTERP_OK);
+  EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
+}
+
+// A budget of 0 keeps the most recently used element only: every element switch decodes again,
+// with the same results.
+TEST(Runtime, ZeroCacheBudgetKeepsTheCurrentElement) {
+  const auto o = open_synthetic(spec(2, cadinterp::core::Degree::Linear));
+  const double xs[3][2] = {{0.1, 0.1}, {0.9, 0.8}, {0.1, 0.1}};
+  std::vector<std::vector<float>> first;
+  std::vector<int> elements;
+  for (const auto& x : xs) {
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
+    first.emplace_back(m.positions, m.positions + m.vertex_count * 3);
+    elements.push_back(m.element);
+  }
+  ASSERT_NE(elements[0], elements[1]);
+  ASSERT_EQ(cadinterp_set_cache_budget(o->asset, 0), CADINTERP_OK);
+  for (int i = 0; i < 3; ++i) {
+    cadinterp_mesh m;
+    ASSERT_EQ(cadinterp_eval(o->ws, xs[i], nullptr, 0, &m), CADINTERP_OK);
+    EXPECT_EQ(std::vector<float>(m.positions, m.positions + m.vertex_count * 3),
+              first[static_cast<std::size_t>(i)]);
+  }
 }
 
 TEST(Runtime, TinyCacheBudgetStillEvaluatesCorrectly) {
