@@ -142,10 +142,9 @@ class ValueProblem final : public AdaptiveProblem {
   std::vector<double> interp_;
 };
 
-}  // namespace
-
-AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector<double>& hi,
-                         AdaptiveProblem& problem, const AdaptiveOptions& opt) {
+// Checks adaptive_run's arguments; throws std::invalid_argument naming the first bad one.
+void check_arguments(int K, const std::vector<double>& lo, const std::vector<double>& hi,
+                     const AdaptiveOptions& opt) {
   if (static_cast<int>(lo.size()) != K || static_cast<int>(hi.size()) != K)
     throw std::invalid_argument("adaptive_sample: domain bounds need K values");
   for (int d = 0; d < K; ++d)
@@ -154,287 +153,380 @@ AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector
   if (opt.max_level < 1 || opt.max_level >= kMaxLevel)
     throw std::invalid_argument("adaptive_sample: max_level outside 1..kMaxLevel-1");
   if (!(opt.tolerance >= 0.0)) throw std::invalid_argument("adaptive_sample: negative tolerance");
+}
 
-  AdaptiveRun res{Basis(K, opt.degree)};
-  Basis& basis = res.basis;
-  const KdTree& tree = basis.tree();
-  PointRows rows(K, lo, hi, problem);
-  auto all_samples = [&] {
+// One run of the adaptive driver (§4.2): the basis being refined, the rows of every point
+// evaluated so far, the priority queue of elements to check, and the current wave's answers.
+// Every stage below keeps the order of host evaluations and error queries fixed, so the result
+// depends only on the values the problem returns.
+class AdaptiveDriver {
+ public:
+  AdaptiveDriver(int K, const std::vector<double>& lo, const std::vector<double>& hi,
+                 AdaptiveProblem& problem, const AdaptiveOptions& opt)
+      : K_(K),
+        problem_(problem),
+        opt_(opt),
+        res_{Basis(K, opt.degree)},
+        basis_(res_.basis),
+        tree_(basis_.tree()),
+        rows_(K, lo, hi, problem) {}
+
+  AdaptiveRun run() {
+    evaluate_samples();
+    initial_refinement();
+    seed_queue();
+    bool stop = false;
+    while (!queue_.empty() && !stop) {
+      const std::vector<int> wave = take_wave();
+      ++res_.waves;
+      problem_.on_wave(static_cast<int>(tree_.leaves().size()));
+      evaluate_wave_points(wave);
+      ask_wave_errors(wave);
+      for (int leaf : wave)
+        if (!check_leaf(leaf)) {
+          stop = true;
+          break;
+        }
+    }
+    finish();
+    return std::move(res_);
+  }
+
+ private:
+  using Query = AdaptiveProblem::ErrorQuery;
+  using Entry = std::pair<int, int>;  // level sum, node id
+
+  // The host at every basis sample not evaluated yet (the corners of e_0 at the start, §4.2).
+  void evaluate_samples() {
     std::vector<IPoint> pts;
-    for (int k = 0; k < basis.sample_count(); ++k) pts.push_back(basis.sample(k));
-    rows.ensure(pts);
-  };
-  all_samples();
+    for (int k = 0; k < basis_.sample_count(); ++k) pts.push_back(basis_.sample(k));
+    rows_.ensure(pts);
+  }
 
   // Initial refinement: once in every direction (§4.2). The new samples of one direction are
   // one wave.
-  for (int d = 0; d < K; ++d) {
-    const std::vector<int> leaves = tree.leaves();  // refine() changes the tree's list
-    for (int leaf : leaves) {
-      basis.refine(leaf, d);
-      ++res.splits;
+  void initial_refinement() {
+    for (int d = 0; d < K_; ++d) {
+      const std::vector<int> leaves = tree_.leaves();  // refine() changes the tree's list
+      for (int leaf : leaves) {
+        basis_.refine(leaf, d);
+        ++res_.splits;
+      }
+      evaluate_samples();
     }
-    all_samples();
   }
 
-  // Largest element first (smallest level sum), ties by node id: deterministic.
-  using Entry = std::pair<int, int>;
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
-  std::vector<char> queued;
-  auto push = [&](int leaf) {
-    if (static_cast<int>(queued.size()) <= leaf)
-      queued.resize(static_cast<std::size_t>(leaf) + 1, 0);
-    if (queued[static_cast<std::size_t>(leaf)]) return;
-    queued[static_cast<std::size_t>(leaf)] = 1;
-    queue.emplace(level_sum(tree.node(leaf), K), leaf);
-  };
-  for (int leaf : tree.leaves()) push(leaf);
-  res.leaf_error.assign(static_cast<std::size_t>(tree.node_count()),
-                        std::numeric_limits<double>::quiet_NaN());
-  res.centre_row.assign(static_cast<std::size_t>(tree.node_count()), -1);
+  // Every leaf of the initial tree is checked (§4.2), and every node gets its result slots.
+  void seed_queue() {
+    for (int leaf : tree_.leaves()) push(leaf);
+    res_.leaf_error.assign(static_cast<std::size_t>(tree_.node_count()),
+                           std::numeric_limits<double>::quiet_NaN());
+    res_.centre_row.assign(static_cast<std::size_t>(tree_.node_count()), -1);
+  }
 
-  auto terms_feasible = [&](const ElementBasis& eb) {
+  // Queues a leaf once: the priority queue of §4.2 takes the largest element first (smallest
+  // level sum), ties by node id, so the order is deterministic.
+  void push(int leaf) {
+    if (static_cast<int>(queued_.size()) <= leaf)
+      queued_.resize(static_cast<std::size_t>(leaf) + 1, 0);
+    if (queued_[static_cast<std::size_t>(leaf)]) return;
+    queued_[static_cast<std::size_t>(leaf)] = 1;
+    queue_.emplace(level_sum(tree_.node(leaf), K_), leaf);
+  }
+
+  bool terms_feasible(const ElementBasis& eb) {
     return std::all_of(eb.terms.begin(), eb.terms.end(),
-                       [&](int k) { return rows.feasible(basis.sample(k)); });
-  };
-  auto face_centres = [&](const KdTree::Node& node, std::vector<IPoint>& out) {
-    const IPoint c = centre_of(node, K);
-    for (int d = 0; d < K; ++d)
+                       [&](int k) { return rows_.feasible(basis_.sample(k)); });
+  }
+
+  void face_centres(const KdTree::Node& node, std::vector<IPoint>& out) const {
+    const IPoint c = centre_of(node, K_);
+    for (int d = 0; d < K_; ++d)
       for (int side = 0; side < 2; ++side) {
         IPoint p = c;
         p[d] = side ? node.box.hi[d] : node.box.lo[d];
         out.push_back(p);
       }
-  };
+  }
 
-  using Query = AdaptiveProblem::ErrorQuery;
   // The refinement test at grid point p (row prow) of an element: its terms and their weights
   // at p, against the host at p, in the combinatorics of the element's centre (row crow).
-  auto error_query = [&](const ElementBasis& eb, int crow, const IPoint& p, int prow) {
+  Query error_query(const ElementBasis& eb, int crow, const IPoint& p, int prow) {
     Query q;
     q.at = prow;
     q.centre = crow;
-    for (int k : eb.terms) q.terms.push_back(rows.row(basis.sample(k)));
+    for (int k : eb.terms) q.terms.push_back(rows_.row(basis_.sample(k)));
     q.psi.resize(eb.terms.size());
     double u[kMaxDim];
-    for (int d = 0; d < K; ++d) u[d] = to_unit(p[d]);
-    eval_element_basis(basis, eb, u, q.psi.data(), nullptr);
+    for (int d = 0; d < K_; ++d) u[d] = to_unit(p[d]);
+    eval_element_basis(basis_, eb, u, q.psi.data(), nullptr);
     return q;
-  };
-  // The per-direction test along d (the two face centres against the centre); false where a
-  // face centre is infeasible.
-  auto midpoint_query = [&](const KdTree::Node& node, int d, Query& q) {
-    const IPoint c = centre_of(node, K);
+  }
+
+  // The per-direction test along d (the two face centres against the centre, §4.2's distance
+  // in each direction); false where a face centre is infeasible.
+  bool midpoint_query(const KdTree::Node& node, int d, Query& q) {
+    const IPoint c = centre_of(node, K_);
     IPoint a = c, b = c;
     a[d] = node.box.lo[d];
     b[d] = node.box.hi[d];
     bool oka = false, okb = false;
     q = Query{};
     q.midpoint = true;
-    q.at = rows.row(c);
-    q.terms = {rows.row(a, &oka), rows.row(b, &okb)};
+    q.at = rows_.row(c);
+    q.terms = {rows_.row(a, &oka), rows_.row(b, &okb)};
     return oka && okb;
-  };
-  std::map<Query, double> memo;  // the current wave's answers
-  auto solve = [&](std::vector<Query>& qs) {
+  }
+
+  // Asks the problem for qs together and memoises the answers for the current wave.
+  void solve(std::vector<Query>& qs) {
     std::vector<double> out;
-    problem.errors(qs, out);
-    for (std::size_t i = 0; i < qs.size(); ++i) memo.emplace(std::move(qs[i]), out[i]);
+    problem_.errors(qs, out);
+    for (std::size_t i = 0; i < qs.size(); ++i) memo_.emplace(std::move(qs[i]), out[i]);
     qs.clear();
-  };
-  auto answer = [&](const Query& q) {
-    auto it = memo.find(q);
-    if (it == memo.end()) {
+  }
+
+  double answer(const Query& q) {
+    auto it = memo_.find(q);
+    if (it == memo_.end()) {
       std::vector<Query> one{q};
       solve(one);
-      it = memo.find(q);
+      it = memo_.find(q);
     }
     return it->second;
-  };
+  }
 
-  bool stop = false;
-  while (!queue.empty() && !stop) {
-    // One wave: every queued element. Its points are evaluated together (centres, then the face
-    // centres of the feasible ones); elements queued while the wave is processed form the next.
+  // One wave: every queued element that is still a leaf. Elements queued while the wave is
+  // processed form the next.
+  std::vector<int> take_wave() {
     std::vector<int> wave;
-    while (!queue.empty()) {
-      const int leaf = queue.top().second;
-      queue.pop();
-      queued[static_cast<std::size_t>(leaf)] = 0;
-      if (tree.is_leaf(leaf)) wave.push_back(leaf);
+    while (!queue_.empty()) {
+      const int leaf = queue_.top().second;
+      queue_.pop();
+      queued_[static_cast<std::size_t>(leaf)] = 0;
+      if (tree_.is_leaf(leaf)) wave.push_back(leaf);
     }
-    ++res.waves;
-    problem.on_wave(static_cast<int>(tree.leaves().size()));
+    return wave;
+  }
+
+  // The wave's points are evaluated together (§4.2's element centres, then the face centres of
+  // the feasible elements), so the host can answer them in one batch.
+  void evaluate_wave_points(const std::vector<int>& wave) {
+    std::vector<IPoint> pts;
+    for (int leaf : wave) pts.push_back(centre_of(tree_.node(leaf), K_));
+    rows_.ensure(pts);
+    pts.clear();
+    for (int leaf : wave) {
+      const KdTree::Node& node = tree_.node(leaf);
+      if (rows_.feasible(centre_of(node, K_)) && terms_feasible(basis_.element_basis(leaf)))
+        face_centres(node, pts);
+    }
+    if (opt_.check_face_centres) rows_.ensure(pts);
+  }
+
+  // The wave's errors (§4.2's error at the element centre, and optionally at its face centres),
+  // then the split directions of the elements above tolerance, asked for together
+  // (problem.errors may answer them in parallel) on the basis as it stands. check_leaf looks
+  // them up, and computes afresh only where an earlier split of the wave changed an element's
+  // terms or weights.
+  void ask_wave_errors(const std::vector<int>& wave) {
+    memo_.clear();
+    std::vector<Query> qs;
+    std::vector<std::pair<int, double>> above;  // leaf, its largest error
+    std::vector<std::size_t> first;             // per feasible leaf: its first query
+    std::vector<int> leaves;
+    for (int leaf : wave) {
+      const KdTree::Node& node = tree_.node(leaf);
+      const IPoint c = centre_of(node, K_);
+      bool ok = false;
+      const int crow = rows_.row(c, &ok);
+      const ElementBasis eb = basis_.element_basis(leaf);
+      if (!ok || !terms_feasible(eb)) continue;
+      std::vector<IPoint> at{c};
+      if (opt_.check_face_centres) face_centres(node, at);
+      first.push_back(qs.size());
+      leaves.push_back(leaf);
+      for (const IPoint& p : at) {
+        bool pok = false;
+        const int prow = rows_.row(p, &pok);
+        if (pok) qs.push_back(error_query(eb, crow, p, prow));
+      }
+    }
+    first.push_back(qs.size());
+    std::vector<double> out;
+    problem_.errors(qs, out);
+    for (std::size_t l = 0; l < leaves.size(); ++l) {
+      double err = 0;
+      for (std::size_t i = first[l]; i < first[l + 1]; ++i) err = std::max(err, out[i]);
+      if (err > opt_.tolerance) above.emplace_back(leaves[l], err);
+    }
+    for (std::size_t i = 0; i < qs.size(); ++i) memo_.emplace(std::move(qs[i]), out[i]);
+    qs.clear();
+    for (const auto& [leaf, err] : above) {
+      const KdTree::Node& node = tree_.node(leaf);
+      Query q;
+      for (int d = 0; d < K_; ++d)
+        if (node.level[d] < opt_.max_level && midpoint_query(node, d, q)) qs.push_back(q);
+    }
+    solve(qs);
+  }
+
+  // The splittable direction with the lowest level; -1 when every direction is at max_level.
+  int widest_direction(const KdTree::Node& node) const {
+    int widest = -1;
+    for (int d = 0; d < K_; ++d)
+      if (node.level[d] < opt_.max_level && (widest < 0 || node.level[d] < node.level[widest]))
+        widest = d;
+    return widest;
+  }
+
+  // The refinement test of §4.2: the error at the element's centre, and with check_face_centres
+  // the largest over its face centres too; infinite where a face centre is infeasible.
+  double element_error(const KdTree::Node& node, const ElementBasis& eb, const IPoint& c,
+                       int crow) {
+    double err = answer(error_query(eb, crow, c, crow));
+    if (opt_.check_face_centres) {
+      std::vector<IPoint> faces;
+      face_centres(node, faces);
+      for (const IPoint& p : faces) {
+        if (!std::isfinite(err)) break;
+        bool ok = false;
+        const int prow = rows_.row(p, &ok);
+        err = ok ? std::max(err, answer(error_query(eb, crow, p, prow)))
+                 : std::numeric_limits<double>::infinity();
+      }
+    }
+    return err;
+  }
+
+  // The split direction of §4.2: the direction whose midpoint test errs most. Ties go to the
+  // coarser direction, then to the lower index; `widest` where the metric returns NaN
+  // everywhere.
+  int split_direction(const KdTree::Node& node, int widest) {
+    int dir = -1;
+    double best = -1.0;
+    for (int d = 0; d < K_; ++d) {
+      if (node.level[d] >= opt_.max_level) continue;
+      Query q;
+      const double e =
+          midpoint_query(node, d, q) ? answer(q) : std::numeric_limits<double>::infinity();
+      if (e > best || (e == best && node.level[d] < node.level[dir])) {
+        best = e;
+        dir = d;
+      }
+    }
+    return dir < 0 ? widest : dir;
+  }
+
+  // Decides one leaf of the wave: records its centre row and error, and splits it when the
+  // refinement test fails (or, with refine_infeasible, when it cannot be evaluated). Returns
+  // false when the sample budget stops the run.
+  bool check_leaf(int leaf) {
+    if (!tree_.is_leaf(leaf)) return true;
+    const KdTree::Node node = tree_.node(leaf);  // a copy: refine() grows the node list
+    const int widest = widest_direction(node);
+
+    const IPoint c = centre_of(node, K_);
+    bool centre_ok = false;
+    const int crow = rows_.row(c, &centre_ok);
+    res_.centre_row[static_cast<std::size_t>(leaf)] = crow;
+    const ElementBasis eb = basis_.element_basis(leaf);
+    const bool feasible = centre_ok && terms_feasible(eb);
+
+    int dir = -1;
+    double err = std::numeric_limits<double>::infinity();
+    if (!feasible) {
+      if (opt_.refine_infeasible) dir = widest;
+    } else {
+      err = element_error(node, eb, c, crow);
+      if (err > opt_.tolerance && widest >= 0) dir = split_direction(node, widest);
+    }
+    res_.leaf_error[static_cast<std::size_t>(leaf)] = err;
+    if (dir < 0) return true;
+    if (basis_.sample_count() >= opt_.max_samples) {
+      res_.budget_exhausted = true;
+      return false;
+    }
+    split(leaf, node, dir);
+    return true;
+  }
+
+  // Splits a leaf and queues its children and the leaves whose interpolant may change (§4.2):
+  // those touching the element (linear), and for cubic also their neighbours (Bbar reaches one
+  // element further).
+  void split(int leaf, const KdTree::Node& node, int dir) {
+    std::vector<int> affected;
+    tree_.leaves_touching(node.box, affected);
+    const std::vector<int> added = basis_.refine(leaf, dir);
+    ++res_.splits;
     {
       std::vector<IPoint> pts;
-      for (int leaf : wave) pts.push_back(centre_of(tree.node(leaf), K));
-      rows.ensure(pts);
-      pts.clear();
-      for (int leaf : wave) {
-        const KdTree::Node& node = tree.node(leaf);
-        if (rows.feasible(centre_of(node, K)) && terms_feasible(basis.element_basis(leaf)))
-          face_centres(node, pts);
-      }
-      if (opt.check_face_centres) rows.ensure(pts);
+      for (int k : added) pts.push_back(basis_.sample(k));
+      rows_.ensure(pts);  // the new samples are the centre (Eq. 10), already evaluated
     }
-    // The wave's errors, asked for together (problem.errors may answer them in parallel) on the
-    // basis as it stands. The decisions below look them up, and compute afresh only where an
-    // earlier split of the wave changed an element's terms or weights.
-    memo.clear();
-    {
-      std::vector<Query> qs;
-      std::vector<std::pair<int, double>> above;  // leaf, its largest error
-      std::vector<std::size_t> first;             // per feasible leaf: its first query
-      std::vector<int> leaves;
-      for (int leaf : wave) {
-        const KdTree::Node& node = tree.node(leaf);
-        const IPoint c = centre_of(node, K);
-        bool ok = false;
-        const int crow = rows.row(c, &ok);
-        const ElementBasis eb = basis.element_basis(leaf);
-        if (!ok || !terms_feasible(eb)) continue;
-        std::vector<IPoint> at{c};
-        if (opt.check_face_centres) face_centres(node, at);
-        first.push_back(qs.size());
-        leaves.push_back(leaf);
-        for (const IPoint& p : at) {
-          bool pok = false;
-          const int prow = rows.row(p, &pok);
-          if (pok) qs.push_back(error_query(eb, crow, p, prow));
-        }
-      }
-      first.push_back(qs.size());
-      std::vector<double> out;
-      problem.errors(qs, out);
-      for (std::size_t l = 0; l < leaves.size(); ++l) {
-        double err = 0;
-        for (std::size_t i = first[l]; i < first[l + 1]; ++i) err = std::max(err, out[i]);
-        if (err > opt.tolerance) above.emplace_back(leaves[l], err);
-      }
-      for (std::size_t i = 0; i < qs.size(); ++i) memo.emplace(std::move(qs[i]), out[i]);
-      qs.clear();
-      // Split directions of the elements above tolerance.
-      for (const auto& [leaf, err] : above) {
-        const KdTree::Node& node = tree.node(leaf);
-        Query q;
-        for (int d = 0; d < K; ++d)
-          if (node.level[d] < opt.max_level && midpoint_query(node, d, q)) qs.push_back(q);
-      }
-      solve(qs);
-    }
-
-    for (int leaf : wave) {
-      if (!tree.is_leaf(leaf)) continue;
-      const KdTree::Node node = tree.node(leaf);
-
-      int widest = -1;  // splittable direction with the lowest level
-      for (int d = 0; d < K; ++d)
-        if (node.level[d] < opt.max_level && (widest < 0 || node.level[d] < node.level[widest]))
-          widest = d;
-
-      const IPoint c = centre_of(node, K);
-      bool centre_ok = false;
-      const int crow = rows.row(c, &centre_ok);
-      res.centre_row[static_cast<std::size_t>(leaf)] = crow;
-      const ElementBasis eb = basis.element_basis(leaf);
-      const bool feasible = centre_ok && terms_feasible(eb);
-
-      int dir = -1;
-      double err = std::numeric_limits<double>::infinity();
-      if (!feasible) {
-        if (opt.refine_infeasible) dir = widest;
-      } else {
-        err = answer(error_query(eb, crow, c, crow));
-        if (opt.check_face_centres) {
-          std::vector<IPoint> faces;
-          face_centres(node, faces);
-          for (const IPoint& p : faces) {
-            if (!std::isfinite(err)) break;
-            bool ok = false;
-            const int prow = rows.row(p, &ok);
-            err = ok ? std::max(err, answer(error_query(eb, crow, p, prow)))
-                     : std::numeric_limits<double>::infinity();
-          }
-        }
-        if (err > opt.tolerance && widest >= 0) {
-          double best = -1.0;
-          for (int d = 0; d < K; ++d) {
-            if (node.level[d] >= opt.max_level) continue;
-            Query q;
-            const double e =
-                midpoint_query(node, d, q) ? answer(q) : std::numeric_limits<double>::infinity();
-            // Ties go to the coarser direction, then to the lower index.
-            if (e > best || (e == best && node.level[d] < node.level[dir])) {
-              best = e;
-              dir = d;
-            }
-          }
-          if (dir < 0) dir = widest;  // a metric returning NaN everywhere
-        }
-      }
-      res.leaf_error[static_cast<std::size_t>(leaf)] = err;
-      if (dir < 0) continue;
-      if (basis.sample_count() >= opt.max_samples) {
-        res.budget_exhausted = true;
-        stop = true;
-        break;
-      }
-
-      // Leaves whose interpolant may change: those touching the element (linear), and for cubic
-      // also their neighbours (Bbar reaches one element further).
-      std::vector<int> affected;
-      tree.leaves_touching(node.box, affected);
-      const std::vector<int> added = basis.refine(leaf, dir);
-      ++res.splits;
-      {
-        std::vector<IPoint> pts;
-        for (int k : added) pts.push_back(basis.sample(k));
-        rows.ensure(pts);  // the new samples are the centre (Eq. 10), already evaluated
-      }
-      if (opt.degree == Degree::Cubic) {
-        std::vector<int> ring;
-        for (int n : affected)
-          if (tree.is_leaf(n)) tree.leaves_touching(tree.node(n).box, ring);
-        affected.insert(affected.end(), ring.begin(), ring.end());
-      }
-      const int kid0 = tree.node(leaf).child[0], kid1 = tree.node(leaf).child[1];
-      push(kid0);
-      push(kid1);
+    if (opt_.degree == Degree::Cubic) {
+      std::vector<int> ring;
       for (int n : affected)
-        if (tree.is_leaf(n)) push(n);
-      res.leaf_error.resize(static_cast<std::size_t>(tree.node_count()),
-                            std::numeric_limits<double>::quiet_NaN());
-      res.centre_row.resize(static_cast<std::size_t>(tree.node_count()), -1);
+        if (tree_.is_leaf(n)) tree_.leaves_touching(tree_.node(n).box, ring);
+      affected.insert(affected.end(), ring.begin(), ring.end());
     }
+    const int kid0 = tree_.node(leaf).child[0], kid1 = tree_.node(leaf).child[1];
+    push(kid0);
+    push(kid1);
+    for (int n : affected)
+      if (tree_.is_leaf(n)) push(n);
+    res_.leaf_error.resize(static_cast<std::size_t>(tree_.node_count()),
+                           std::numeric_limits<double>::quiet_NaN());
+    res_.centre_row.resize(static_cast<std::size_t>(tree_.node_count()), -1);
   }
 
   // Every leaf gets a centre row (its canonical mesh is the host at its centre, §4.2), also the
-  // leaves the budget stopped before they were checked.
-  {
-    std::vector<IPoint> pts;
-    for (int leaf : tree.leaves()) pts.push_back(centre_of(tree.node(leaf), K));
-    rows.ensure(pts);
+  // leaves the budget stopped before they were checked; then the rows of the samples.
+  void finish() {
+    {
+      std::vector<IPoint> pts;
+      for (int leaf : tree_.leaves()) pts.push_back(centre_of(tree_.node(leaf), K_));
+      rows_.ensure(pts);
+    }
+    res_.leaf_error.resize(static_cast<std::size_t>(tree_.node_count()),
+                           std::numeric_limits<double>::quiet_NaN());
+    res_.centre_row.resize(static_cast<std::size_t>(tree_.node_count()), -1);
+    for (int leaf : tree_.leaves()) {
+      const IPoint c = centre_of(tree_.node(leaf), K_);
+      bool ok = false;
+      const int crow = rows_.row(c, &ok);
+      res_.centre_row[static_cast<std::size_t>(leaf)] = crow;
+      // Leaves left unchecked by the budget still get an estimate: the error at their centre,
+      // which is evaluated anyway (it is their canonical point).
+      double& err = res_.leaf_error[static_cast<std::size_t>(leaf)];
+      const ElementBasis eb = basis_.element_basis(leaf);
+      if (!std::isnan(err) || !ok || !terms_feasible(eb)) continue;
+      err = answer(error_query(eb, crow, c, crow));
+    }
+    res_.sample_row.resize(static_cast<std::size_t>(basis_.sample_count()));
+    for (int k = 0; k < basis_.sample_count(); ++k)
+      res_.sample_row[static_cast<std::size_t>(k)] = rows_.row(basis_.sample(k));
+    res_.row_feasible = rows_.feasible_rows();
   }
-  res.leaf_error.resize(static_cast<std::size_t>(tree.node_count()),
-                        std::numeric_limits<double>::quiet_NaN());
-  res.centre_row.resize(static_cast<std::size_t>(tree.node_count()), -1);
-  for (int leaf : tree.leaves()) {
-    const IPoint c = centre_of(tree.node(leaf), K);
-    bool ok = false;
-    const int crow = rows.row(c, &ok);
-    res.centre_row[static_cast<std::size_t>(leaf)] = crow;
-    // Leaves left unchecked by the budget still get an estimate: the error at their centre,
-    // which is evaluated anyway (it is their canonical point).
-    double& err = res.leaf_error[static_cast<std::size_t>(leaf)];
-    const ElementBasis eb = basis.element_basis(leaf);
-    if (!std::isnan(err) || !ok || !terms_feasible(eb)) continue;
-    err = answer(error_query(eb, crow, c, crow));
-  }
-  res.sample_row.resize(static_cast<std::size_t>(basis.sample_count()));
-  for (int k = 0; k < basis.sample_count(); ++k)
-    res.sample_row[static_cast<std::size_t>(k)] = rows.row(basis.sample(k));
-  res.row_feasible = rows.feasible_rows();
-  return res;
+
+  const int K_;
+  AdaptiveProblem& problem_;
+  const AdaptiveOptions& opt_;
+  AdaptiveRun res_;
+  Basis& basis_;
+  const KdTree& tree_;
+  PointRows rows_;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue_;
+  std::vector<char> queued_;
+  std::map<Query, double> memo_;  // the current wave's answers
+};
+
+}  // namespace
+
+AdaptiveRun adaptive_run(int K, const std::vector<double>& lo, const std::vector<double>& hi,
+                         AdaptiveProblem& problem, const AdaptiveOptions& opt) {
+  check_arguments(K, lo, hi, opt);
+  return AdaptiveDriver(K, lo, hi, problem, opt).run();
 }
 
 AdaptiveResult adaptive_sample(int K, int m, const std::vector<double>& lo,

@@ -170,6 +170,259 @@ DecodedArray<float> take_array(SpareArrays* spare, std::size_t n) {
                     "element " + std::to_string(e) + ": non-finite values in a " + what + " blob");
 }
 
+// The header's fields after the magic and version (SPEC.md, "Layout").
+struct Header {
+  std::uint64_t file_size, index_offset, index_size, index_hash;
+};
+
+// Checks the header of the `size` bytes at `data`: magic, version, then every field, since
+// format 1.x has exactly one header layout and the index right after it (a newer minor, which
+// could grow the header, is rejected). Sets *minor from the version field.
+Header check_header(const std::uint8_t* data, std::uint64_t size, std::uint16_t* minor) {
+  if (size < sizeof kMagic || std::memcmp(data, kMagic, sizeof kMagic) != 0)
+    throw FormatError(Status::BadMagic, "not a cadinterp asset (bad magic)");
+  if (size < kHeaderSize) throw FormatError(Status::Truncated, "file shorter than its header");
+  const auto major = static_cast<std::uint16_t>(get_le(data + 8, 2));
+  *minor = static_cast<std::uint16_t>(get_le(data + 10, 2));
+  if (major != kFormatMajor || *minor > kFormatMinor)
+    throw FormatError(Status::UnsupportedVersion,
+                      "format " + std::to_string(major) + "." + std::to_string(*minor) +
+                          " (this reader: " + std::to_string(kFormatMajor) + "." +
+                          std::to_string(kFormatMinor) + ")");
+  const std::uint64_t header_size = get_le(data + 12, 4);
+  Header h;
+  h.file_size = get_le(data + 16, 8);
+  h.index_offset = get_le(data + 24, 8);
+  h.index_size = get_le(data + 32, 8);
+  h.index_hash = get_le(data + 40, 8);
+  if (header_size != kHeaderSize) throw FormatError(Status::CorruptIndex, "header size field");
+  if (h.file_size > size)
+    throw FormatError(Status::Truncated, "file has " + std::to_string(size) +
+                                             " bytes, header says " + std::to_string(h.file_size));
+  if (h.file_size < size)
+    throw FormatError(Status::CorruptIndex, "trailing bytes after the end the header gives");
+  if (h.index_offset != kHeaderSize) throw FormatError(Status::CorruptIndex, "index offset field");
+  if (h.index_size > h.file_size || h.index_offset > h.file_size - h.index_size)
+    throw FormatError(Status::OutOfRange, "index outside the file");
+  if (h.index_size > std::numeric_limits<std::uint32_t>::max() / 2)
+    throw FormatError(Status::LimitExceeded, "index larger than 2 GB");
+  return h;
+}
+
+// Checks the index's checksum and verifies it as a FlatBuffer; returns its root. A misaligned
+// index is copied into `copy` first, as FlatBuffers reads scalars in place and needs 8-aligned
+// memory.
+const fb::Asset* verify_index(const std::uint8_t* data, const Header& h,
+                              std::vector<std::uint64_t>& copy) {
+  // A FlatBuffer has at least its root offset and file identifier (8 bytes); the identifier
+  // check below reads them before the verifier runs, so a shorter index would be read past its
+  // end.
+  if (h.index_size < 8) corrupt("index shorter than a FlatBuffers header");
+  const std::uint8_t* index = data + h.index_offset;
+  if (XXH64(index, static_cast<std::size_t>(h.index_size), 0) != h.index_hash)
+    throw FormatError(Status::ChecksumMismatch, "index checksum mismatch");
+  if (reinterpret_cast<std::uintptr_t>(index) % 8 != 0) {
+    copy.resize(static_cast<std::size_t>((h.index_size + 7) / 8));
+    std::memcpy(copy.data(), index, static_cast<std::size_t>(h.index_size));
+    index = reinterpret_cast<const std::uint8_t*>(copy.data());
+  }
+  // FlatBuffers verification with explicit limits: depth, table count bounded by the size.
+  flatbuffers::Verifier verifier(index, static_cast<std::size_t>(h.index_size), 64,
+                                 static_cast<flatbuffers::uoffset_t>(h.index_size / 4 + 16));
+  if (!fb::AssetBufferHasIdentifier(index) || !fb::VerifyAssetBuffer(verifier))
+    corrupt("FlatBuffers verification failed");
+  return fb::GetAsset(index);
+}
+
+// The index's basis and parameter domain, every array checked by from_parts.
+core::CompiledBasis read_basis(const fb::Asset& index) {
+  const fb::Basis* b = index.basis();
+  const auto* params = index.parameters();
+  core::CompiledBasis::Parts p;
+  p.K = b->dim();
+  if (p.K < 1 || p.K > core::kMaxDim || static_cast<int>(params->size()) != p.K)
+    corrupt("dimension and parameter count");
+  if (b->degree() != 1 && b->degree() != 3) corrupt("basis degree");
+  p.degree = static_cast<core::Degree>(b->degree());
+  for (const fb::Parameter* prm : *params) {
+    p.lo.push_back(prm->lower());
+    p.hi.push_back(prm->upper());
+  }
+  p.sample_unit = to_vector<double>(b->sample_unit());
+  p.node_dir = to_vector<std::int8_t>(b->node_dir());
+  p.node_split = to_vector<double>(b->node_split());
+  p.node_child = to_vector<std::int32_t>(b->node_child());
+  p.node_elem = to_vector<std::int32_t>(b->node_elem());
+  p.elem_box = to_vector<double>(b->elem_box());
+  p.elem_feasible = to_vector<std::uint8_t>(b->elem_feasible());
+  p.elem_bs_begin = to_vector<std::int64_t>(b->elem_bs_begin());
+  p.elem_term_begin = to_vector<std::int64_t>(b->elem_term_begin());
+  p.bs_centre = to_vector<double>(b->bs_centre());
+  p.bs_inv_width = to_vector<double>(b->bs_inv_width());
+  p.bs_col_begin = to_vector<std::int64_t>(b->bs_col_begin());
+  p.term_sample = to_vector<std::int32_t>(b->term_sample());
+  p.col_term = to_vector<std::int32_t>(b->col_term());
+  p.col_value = to_vector<double>(b->col_value());
+  try {
+    return core::CompiledBasis::from_parts(std::move(p));
+  } catch (const std::invalid_argument& e) {
+    corrupt(e.what());
+  }
+}
+
+// The C ABI hands strings out NUL-terminated, so an embedded NUL would make a name read back
+// differently from what cadinterp_find_field compares.
+void check_text(const flatbuffers::String* str, const char* what) {
+  if (str && std::memchr(str->data(), '\0', str->size()))
+    corrupt(std::string(what) + " contains a NUL character");
+}
+
+// Checks the descriptive tables of a K-parameter asset: their strings, the infeasible points'
+// coordinates, and that the format minor is the one the content needs.
+void check_descriptions(const fb::Asset& index, int K, std::uint16_t minor) {
+  for (const fb::Parameter* prm : *index.parameters()) {
+    check_text(prm->name(), "parameter name");
+    check_text(prm->unit(), "parameter unit");
+  }
+  if (const auto* fields = index.fields())
+    for (const fb::FieldDesc* f : *fields) {
+      check_text(f->name(), "field name");
+      check_text(f->unit(), "field unit");  // format 1.1
+    }
+  // The minor is the lowest one whose schema holds the content (SPEC.md, "Compatibility
+  // rules"): 1 exactly when a field has a unit. Checked both ways, so that the minor's bits are
+  // covered like every other byte (a flipped minor is reported, not read as another version).
+  {
+    bool any_unit = false;
+    if (const auto* fields = index.fields())
+      for (const fb::FieldDesc* f : *fields)
+        any_unit = any_unit || (f->unit() && f->unit()->size());
+    if (minor != (any_unit ? 1 : 0))
+      corrupt("format minor " + std::to_string(minor) +
+              " does not match the content (field units " +
+              (any_unit ? "present: 1.1" : "absent: 1.0") + ")");
+  }
+  if (const auto* regions = index.regions())
+    for (const fb::BoundaryRegion* r : *regions) {
+      check_text(r->name(), "region name");
+      check_text(r->kind(), "region kind");
+    }
+  if (const auto* inf = index.infeasible())
+    for (const fb::InfeasiblePoint* f : *inf) {
+      if (!f->x() || static_cast<int>(f->x()->size()) != K)
+        corrupt("infeasible point with other than K coordinates");
+      for (double v : *f->x())
+        if (!std::isfinite(v)) corrupt("infeasible point not finite");
+      check_text(f->message(), "infeasible message");
+    }
+  if (const fb::Provenance* pv = index.provenance()) {
+    check_text(pv->builder_version(), "builder version");
+    check_text(pv->host(), "host name");
+    check_text(pv->options(), "build options");
+  }
+}
+
+// Checks the field descriptions and adds up the values each vertex and each tet carries.
+void count_field_values(const fb::Asset& index, std::size_t& per_vertex, std::size_t& per_tet) {
+  if (const auto* fields = index.fields())
+    for (const fb::FieldDesc* f : *fields) {
+      if (f->components() < 1 || f->components() > kMaxComps) corrupt("field components");
+      if (f->location() == fb::FieldLocation::Vertex)
+        per_vertex += f->components();
+      else if (f->location() == fb::FieldLocation::Tet)
+        per_tet += f->components();
+      else
+        corrupt("field location");
+      if (!(f->max_abs_error() >= 0.0f)) corrupt("field error bound");
+    }
+}
+
+// Where a blob reference points inside the blob section; all four fields equal name one
+// shared blob.
+struct Extent {
+  std::uint64_t offset, size, checksum;
+  std::uint8_t codec;
+  auto tie() const { return std::tie(offset, size, checksum, codec); }
+  bool operator<(const Extent& o) const { return tie() < o.tie(); }
+  bool operator==(const Extent& o) const { return tie() == o.tie(); }
+};
+
+// Checks that a blob reference is present, has a known codec and lies inside the blob section
+// of `section` bytes; appends its extent.
+void check_ref(const fb::BlobRef* r, const char* what, std::uint64_t section,
+               std::vector<Extent>& extents) {
+  if (!r) corrupt(std::string("missing ") + what + " blob");
+  if (!codec_is_known(static_cast<std::uint8_t>(r->codec())))
+    corrupt(std::string("unknown codec of a ") + what + " blob");
+  if (r->size() > section || r->offset() > section - r->size())
+    throw FormatError(Status::OutOfRange, std::string(what) + " blob outside the file");
+  extents.push_back({r->offset(), r->size(), r->checksum(), static_cast<std::uint8_t>(r->codec())});
+}
+
+// Checks element e of the index against the basis and the limits: counts within limits, one
+// blob per term, every blob inside the section, and no more expansion than the limits allow.
+// Appends the extents of its blobs.
+void check_element(const fb::ElementMeshes* m, int e, const core::CompiledBasis& basis,
+                   const ReadLimits& limits, std::size_t per_vertex, std::size_t per_tet,
+                   std::uint64_t section, std::vector<Extent>& extents) {
+  int terms = 0;
+  basis.element_samples(e, &terms);
+  // Before the infeasible-element shortcut: error_estimate answers for every element.
+  if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
+  if (m->vertex_count() == 0) {
+    if (basis.element_feasible(e)) corrupt("feasible element without meshes");
+    return;
+  }
+  if (m->vertex_count() > limits.max_vertices || m->tet_count() > limits.max_tets ||
+      m->triangle_count() > limits.max_triangles)
+    throw FormatError(Status::LimitExceeded,
+                      "element " + std::to_string(e) + " counts exceed limits");
+  const std::uint64_t field_values =
+      std::uint64_t(m->vertex_count()) * per_vertex + std::uint64_t(m->tet_count()) * per_tet;
+  const std::uint64_t decoded =
+      4 * (std::uint64_t(m->tet_count()) * 4 + std::uint64_t(m->triangle_count()) * 4 +
+           std::uint64_t(m->vertex_count()) * 3 * std::uint64_t(terms + 1) +
+           field_values * std::uint64_t(terms));
+  if (decoded > limits.max_decoded_bytes)
+    throw FormatError(Status::LimitExceeded, "element " + std::to_string(e) + " decodes too large");
+  const std::size_t first_extent = extents.size();
+  check_ref(m->tets(), "tets", section, extents);
+  check_ref(m->triangles(), "triangles", section, extents);
+  check_ref(m->triangle_tags(), "triangle tags", section, extents);
+  check_ref(m->canonical_positions(), "canonical positions", section, extents);
+  if (!m->positions() || static_cast<int>(m->positions()->size()) != terms)
+    corrupt("element " + std::to_string(e) + ": one position blob per term needed");
+  require_aligned(m->positions(), "position blob");
+  require_aligned(m->fields(), "field blob");
+  for (const fb::BlobRef* r : *m->positions()) check_ref(r, "positions", section, extents);
+  const int field_blobs = m->fields() ? static_cast<int>(m->fields()->size()) : 0;
+  if (field_values ? field_blobs != terms : field_blobs != 0)
+    corrupt("element " + std::to_string(e) + ": field blob count");
+  if (m->fields())
+    for (const fb::BlobRef* r : *m->fields()) check_ref(r, "fields", section, extents);
+  std::uint64_t stored = 0;
+  for (std::size_t i = first_extent; i < extents.size(); ++i) stored += extents[i].size;
+  if (decoded / limits.max_expansion > stored + 4096)
+    throw FormatError(Status::LimitExceeded, "element " + std::to_string(e) + " claims " +
+                                                 std::to_string(decoded) + " decoded bytes from " +
+                                                 std::to_string(stored) + " stored bytes");
+}
+
+// The blobs tile the blob section of `section` bytes exactly: no byte of the file escapes every
+// checksum. Identical references name one shared blob (SPEC.md, "Layout"); any other overlap
+// is corruption. Sorting puts identical references side by side.
+void check_tiling(std::vector<Extent>& extents, std::uint64_t section) {
+  std::sort(extents.begin(), extents.end());
+  std::uint64_t end = 0;
+  for (std::size_t i = 0; i < extents.size(); ++i) {
+    const Extent& x = extents[i];
+    if (i > 0 && x == extents[i - 1]) continue;
+    if (x.offset != end) corrupt("blob section has a gap or an overlap");
+    end = x.offset + x.size;
+  }
+  if (end != section) corrupt("blob section has unreferenced bytes");
+}
+
 }  // namespace
 
 AssetReader::~AssetReader() {
@@ -223,231 +476,25 @@ std::unique_ptr<AssetReader> AssetReader::open_memory(const void* data, std::siz
   return r;
 }
 
+// Verifies the whole file before anything is decoded, in the order of its layout; each step
+// throws FormatError with the status of the first check that fails.
 void AssetReader::open(const ReadLimits& limits) {
   limits_ = limits;
-  // Header.
-  if (size_ < sizeof kMagic || std::memcmp(data_, kMagic, sizeof kMagic) != 0)
-    throw FormatError(Status::BadMagic, "not a cadinterp asset (bad magic)");
-  if (size_ < kHeaderSize) throw FormatError(Status::Truncated, "file shorter than its header");
-  const auto major = static_cast<std::uint16_t>(get_le(data_ + 8, 2));
-  minor_ = static_cast<std::uint16_t>(get_le(data_ + 10, 2));
-  if (major != kFormatMajor || minor_ > kFormatMinor)
-    throw FormatError(Status::UnsupportedVersion,
-                      "format " + std::to_string(major) + "." + std::to_string(minor_) +
-                          " (this reader: " + std::to_string(kFormatMajor) + "." +
-                          std::to_string(kFormatMinor) + ")");
-  const std::uint64_t header_size = get_le(data_ + 12, 4);
-  const std::uint64_t file_size = get_le(data_ + 16, 8);
-  const std::uint64_t index_offset = get_le(data_ + 24, 8);
-  const std::uint64_t index_size = get_le(data_ + 32, 8);
-  const std::uint64_t index_hash = get_le(data_ + 40, 8);
-  // Format 1.0 has exactly one header layout and the index right after it, so every header
-  // bit is checked (a newer minor, which could grow the header, is rejected above).
-  if (header_size != kHeaderSize) throw FormatError(Status::CorruptIndex, "header size field");
-  if (file_size > size_)
-    throw FormatError(Status::Truncated, "file has " + std::to_string(size_) +
-                                             " bytes, header says " + std::to_string(file_size));
-  if (file_size < size_)
-    throw FormatError(Status::CorruptIndex, "trailing bytes after the end the header gives");
-  if (index_offset != kHeaderSize) throw FormatError(Status::CorruptIndex, "index offset field");
-  if (index_size > file_size || index_offset > file_size - index_size)
-    throw FormatError(Status::OutOfRange, "index outside the file");
-  if (index_size > std::numeric_limits<std::uint32_t>::max() / 2)
-    throw FormatError(Status::LimitExceeded, "index larger than 2 GB");
-  // A FlatBuffer has at least its root offset and file identifier (8 bytes); the identifier
-  // check below reads them before the verifier runs (found by fuzzing: an empty index read 4
-  // bytes past the caller's buffer).
-  if (index_size < 8) corrupt("index shorter than a FlatBuffers header");
-  const std::uint8_t* index = data_ + index_offset;
-  if (XXH64(index, static_cast<std::size_t>(index_size), 0) != index_hash)
-    throw FormatError(Status::ChecksumMismatch, "index checksum mismatch");
-  // FlatBuffers reads scalars in place: the index must be 8-aligned in memory.
-  if (reinterpret_cast<std::uintptr_t>(index) % 8 != 0) {
-    index_copy_.resize(static_cast<std::size_t>((index_size + 7) / 8));
-    std::memcpy(index_copy_.data(), index, static_cast<std::size_t>(index_size));
-    index = reinterpret_cast<const std::uint8_t*>(index_copy_.data());
-  }
+  const Header h = check_header(data_, size_, &minor_);
+  index_ = verify_index(data_, h, index_copy_);
+  basis_ = read_basis(*index_);
+  check_descriptions(*index_, basis_.dim(), minor_);
+  count_field_values(*index_, per_vertex_, per_tet_);
 
-  // FlatBuffers verification with explicit limits: depth, table count bounded by the size.
-  flatbuffers::Verifier verifier(index, static_cast<std::size_t>(index_size), 64,
-                                 static_cast<flatbuffers::uoffset_t>(index_size / 4 + 16));
-  if (!fb::AssetBufferHasIdentifier(index) || !fb::VerifyAssetBuffer(verifier))
-    corrupt("FlatBuffers verification failed");
-  index_ = fb::GetAsset(index);
-
-  // Basis (every array checked by from_parts).
-  const fb::Basis* b = index_->basis();
-  const auto* params = index_->parameters();
-  core::CompiledBasis::Parts p;
-  p.K = b->dim();
-  if (p.K < 1 || p.K > core::kMaxDim || static_cast<int>(params->size()) != p.K)
-    corrupt("dimension and parameter count");
-  if (b->degree() != 1 && b->degree() != 3) corrupt("basis degree");
-  p.degree = static_cast<core::Degree>(b->degree());
-  for (const fb::Parameter* prm : *params) {
-    p.lo.push_back(prm->lower());
-    p.hi.push_back(prm->upper());
-  }
-  p.sample_unit = to_vector<double>(b->sample_unit());
-  p.node_dir = to_vector<std::int8_t>(b->node_dir());
-  p.node_split = to_vector<double>(b->node_split());
-  p.node_child = to_vector<std::int32_t>(b->node_child());
-  p.node_elem = to_vector<std::int32_t>(b->node_elem());
-  p.elem_box = to_vector<double>(b->elem_box());
-  p.elem_feasible = to_vector<std::uint8_t>(b->elem_feasible());
-  p.elem_bs_begin = to_vector<std::int64_t>(b->elem_bs_begin());
-  p.elem_term_begin = to_vector<std::int64_t>(b->elem_term_begin());
-  p.bs_centre = to_vector<double>(b->bs_centre());
-  p.bs_inv_width = to_vector<double>(b->bs_inv_width());
-  p.bs_col_begin = to_vector<std::int64_t>(b->bs_col_begin());
-  p.term_sample = to_vector<std::int32_t>(b->term_sample());
-  p.col_term = to_vector<std::int32_t>(b->col_term());
-  p.col_value = to_vector<double>(b->col_value());
-  try {
-    basis_ = core::CompiledBasis::from_parts(std::move(p));
-  } catch (const std::invalid_argument& e) {
-    corrupt(e.what());
-  }
-
-  // Text: the C ABI hands strings out NUL-terminated, so an embedded NUL would make a name
-  // read back differently from what cadinterp_find_field compares (found by fuzzing).
-  auto text = [](const flatbuffers::String* str, const char* what) {
-    if (str && std::memchr(str->data(), '\0', str->size()))
-      corrupt(std::string(what) + " contains a NUL character");
-  };
-  for (const fb::Parameter* prm : *params) {
-    text(prm->name(), "parameter name");
-    text(prm->unit(), "parameter unit");
-  }
-  if (const auto* fields = index_->fields())
-    for (const fb::FieldDesc* f : *fields) {
-      text(f->name(), "field name");
-      text(f->unit(), "field unit");  // format 1.1
-    }
-  // The minor is the lowest one whose schema holds the content (SPEC.md, "Compatibility
-  // rules"): 1 exactly when a field has a unit. Checked both ways, so that the minor's bits are
-  // covered like every other byte (a flipped minor is reported, not read as another version).
-  {
-    bool any_unit = false;
-    if (const auto* fields = index_->fields())
-      for (const fb::FieldDesc* f : *fields)
-        any_unit = any_unit || (f->unit() && f->unit()->size());
-    if (minor_ != (any_unit ? 1 : 0))
-      corrupt("format minor " + std::to_string(minor_) +
-              " does not match the content (field units " +
-              (any_unit ? "present: 1.1" : "absent: 1.0") + ")");
-  }
-  if (const auto* regions = index_->regions())
-    for (const fb::BoundaryRegion* r : *regions) {
-      text(r->name(), "region name");
-      text(r->kind(), "region kind");
-    }
-  if (const auto* inf = index_->infeasible())
-    for (const fb::InfeasiblePoint* f : *inf) {
-      if (!f->x() || static_cast<int>(f->x()->size()) != basis_.dim())
-        corrupt("infeasible point with other than K coordinates");
-      for (double v : *f->x())
-        if (!std::isfinite(v)) corrupt("infeasible point not finite");
-      text(f->message(), "infeasible message");
-    }
-  if (const fb::Provenance* pv = index_->provenance()) {
-    text(pv->builder_version(), "builder version");
-    text(pv->host(), "host name");
-    text(pv->options(), "build options");
-  }
-
-  // Fields.
-  if (const auto* fields = index_->fields())
-    for (const fb::FieldDesc* f : *fields) {
-      if (f->components() < 1 || f->components() > kMaxComps) corrupt("field components");
-      if (f->location() == fb::FieldLocation::Vertex)
-        per_vertex_ += f->components();
-      else if (f->location() == fb::FieldLocation::Tet)
-        per_tet_ += f->components();
-      else
-        corrupt("field location");
-      if (!(f->max_abs_error() >= 0.0f)) corrupt("field error bound");
-    }
-
-  // Elements: counts within limits, one blob per term, every blob inside the file.
   const auto* elems = index_->elements();
   if (static_cast<int>(elems->size()) != basis_.element_count()) corrupt("element count");
-  blobs_ = index_offset + index_size;
-  const std::uint64_t section = file_size - blobs_;
-  struct Extent {
-    std::uint64_t offset, size, checksum;
-    std::uint8_t codec;
-    auto tie() const { return std::tie(offset, size, checksum, codec); }
-    bool operator<(const Extent& o) const { return tie() < o.tie(); }
-    bool operator==(const Extent& o) const { return tie() == o.tie(); }
-  };
+  blobs_ = h.index_offset + h.index_size;
+  const std::uint64_t section = h.file_size - blobs_;
   std::vector<Extent> extents;
-  auto check_ref = [&](const fb::BlobRef* r, const char* what) {
-    if (!r) corrupt(std::string("missing ") + what + " blob");
-    if (!codec_is_known(static_cast<std::uint8_t>(r->codec())))
-      corrupt(std::string("unknown codec of a ") + what + " blob");
-    if (r->size() > section || r->offset() > section - r->size())
-      throw FormatError(Status::OutOfRange, std::string(what) + " blob outside the file");
-    extents.push_back(
-        {r->offset(), r->size(), r->checksum(), static_cast<std::uint8_t>(r->codec())});
-  };
-  for (int e = 0; e < basis_.element_count(); ++e) {
-    const fb::ElementMeshes* m = elems->Get(static_cast<flatbuffers::uoffset_t>(e));
-    int terms = 0;
-    basis_.element_samples(e, &terms);
-    // Before the infeasible-element shortcut: error_estimate answers for every element.
-    if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
-    if (m->vertex_count() == 0) {
-      if (basis_.element_feasible(e)) corrupt("feasible element without meshes");
-      continue;
-    }
-    if (m->vertex_count() > limits_.max_vertices || m->tet_count() > limits_.max_tets ||
-        m->triangle_count() > limits_.max_triangles)
-      throw FormatError(Status::LimitExceeded,
-                        "element " + std::to_string(e) + " counts exceed limits");
-    const std::uint64_t field_values =
-        std::uint64_t(m->vertex_count()) * per_vertex_ + std::uint64_t(m->tet_count()) * per_tet_;
-    const std::uint64_t decoded =
-        4 * (std::uint64_t(m->tet_count()) * 4 + std::uint64_t(m->triangle_count()) * 4 +
-             std::uint64_t(m->vertex_count()) * 3 * std::uint64_t(terms + 1) +
-             field_values * std::uint64_t(terms));
-    if (decoded > limits_.max_decoded_bytes)
-      throw FormatError(Status::LimitExceeded,
-                        "element " + std::to_string(e) + " decodes too large");
-    const std::size_t first_extent = extents.size();
-    check_ref(m->tets(), "tets");
-    check_ref(m->triangles(), "triangles");
-    check_ref(m->triangle_tags(), "triangle tags");
-    check_ref(m->canonical_positions(), "canonical positions");
-    if (!m->positions() || static_cast<int>(m->positions()->size()) != terms)
-      corrupt("element " + std::to_string(e) + ": one position blob per term needed");
-    require_aligned(m->positions(), "position blob");
-    require_aligned(m->fields(), "field blob");
-    for (const fb::BlobRef* r : *m->positions()) check_ref(r, "positions");
-    const int field_blobs = m->fields() ? static_cast<int>(m->fields()->size()) : 0;
-    if (field_values ? field_blobs != terms : field_blobs != 0)
-      corrupt("element " + std::to_string(e) + ": field blob count");
-    if (m->fields())
-      for (const fb::BlobRef* r : *m->fields()) check_ref(r, "fields");
-    std::uint64_t stored = 0;
-    for (std::size_t i = first_extent; i < extents.size(); ++i) stored += extents[i].size;
-    if (decoded / limits_.max_expansion > stored + 4096)
-      throw FormatError(Status::LimitExceeded,
-                        "element " + std::to_string(e) + " claims " + std::to_string(decoded) +
-                            " decoded bytes from " + std::to_string(stored) + " stored bytes");
-  }
-  // The blobs tile the blob section exactly: no byte of the file escapes every checksum.
-  // Identical references (all four fields equal) name one shared blob (SPEC.md, "Layout"); any
-  // other overlap is corruption. Sorting puts identical references side by side.
-  std::sort(extents.begin(), extents.end());
-  std::uint64_t end = 0;
-  for (std::size_t i = 0; i < extents.size(); ++i) {
-    const Extent& x = extents[i];
-    if (i > 0 && x == extents[i - 1]) continue;
-    if (x.offset != end) corrupt("blob section has a gap or an overlap");
-    end = x.offset + x.size;
-  }
-  if (end != section) corrupt("blob section has unreferenced bytes");
+  for (int e = 0; e < basis_.element_count(); ++e)
+    check_element(elems->Get(static_cast<flatbuffers::uoffset_t>(e)), e, basis_, limits_,
+                  per_vertex_, per_tet_, section, extents);
+  check_tiling(extents, section);
 }
 
 AssetReader::Bytes AssetReader::blob(const void* ref) const {

@@ -54,9 +54,14 @@ class BlobSink {
   std::unordered_multimap<std::uint64_t, fb::BlobRef> stored_;  // by checksum
 };
 
-}  // namespace
+// Field values each vertex and each tet carries, summed over the field descriptors.
+struct FieldSizes {
+  std::size_t per_vertex = 0, per_tet = 0;
+};
 
-std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions& o) {
+// Checks the content's descriptors against its basis: parameters, element count, fields and
+// regions. Throws FormatError(InvalidArgument) naming the first mismatch.
+FieldSizes check_content(const AssetContent& c) {
   if (!c.basis) bad("no basis");
   const core::CompiledBasis::Parts& p = c.basis->parts();
   const int K = p.K;
@@ -70,98 +75,112 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
   }
   const int E = c.basis->element_count();
   if (static_cast<int>(c.elements.size()) != E) bad("one ElementData per basis element needed");
-  std::size_t field_values_per_vertex = 0, field_values_per_tet = 0;
+  FieldSizes sizes;
   for (const FieldInfo& f : c.fields) {
     if (f.name.empty() || f.components < 1 || f.components > kMaxComps) bad("field descriptor");
     if (f.name.find('\0') != std::string::npos || f.unit.find('\0') != std::string::npos)
       bad("field name or unit contains a NUL");
-    (f.location == FieldLocation::Vertex ? field_values_per_vertex : field_values_per_tet) +=
+    (f.location == FieldLocation::Vertex ? sizes.per_vertex : sizes.per_tet) +=
         static_cast<std::size_t>(f.components);
   }
   for (const RegionInfo& r : c.regions)
     if (r.name.empty()) bad("boundary region without a name");
+  return sizes;
+}
 
-  std::vector<std::uint8_t> section;
-  BlobSink sink(section);
-  flatbuffers::FlatBufferBuilder fbb(1 << 16);
+// Checks the array sizes of element e's meshes (nv vertices, `terms` basis terms).
+void check_element_arrays(const ElementData& ed, int e, int terms, const FieldSizes& sizes) {
+  const std::size_t nv = ed.vertex_count;
+  const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
+  if (ed.tets.size() % 4 || ed.triangles.size() % 3 || ed.triangle_tags.size() != ntri)
+    bad("element " + std::to_string(e) + ": topology array sizes");
+  if (ed.canonical.size() != nv * 3) bad("element " + std::to_string(e) + ": canonical size");
+  if (static_cast<int>(ed.positions.size()) != terms)
+    bad("element " + std::to_string(e) + ": one position array per term needed");
+  const std::size_t field_size = nv * sizes.per_vertex + ntet * sizes.per_tet;
+  if (!(ed.fields.empty() && field_size == 0) && static_cast<int>(ed.fields.size()) != terms)
+    bad("element " + std::to_string(e) + ": one field array per term needed");
+  for (const auto& a : ed.positions)
+    if (a.size() != nv * 3) bad("element " + std::to_string(e) + ": position array size");
+  for (const auto& a : ed.fields)
+    if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
+}
+
+// Encodes element e's meshes into the blob section and returns its index table; an element
+// without meshes (only an infeasible one may lack them) stores its error estimate alone.
+flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuilder& fbb,
+                                                     BlobSink& sink, const AssetContent& c, int e,
+                                                     const WriteOptions& o,
+                                                     const FieldSizes& sizes) {
+  const ElementData& ed = c.elements[static_cast<std::size_t>(e)];
+  int terms = 0;
+  c.basis->element_samples(e, &terms);
+  const std::size_t nv = ed.vertex_count;
+  const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
+  if (nv == 0) {
+    if (c.basis->element_feasible(e))
+      bad("feasible element " + std::to_string(e) + " without meshes");
+    fb::ElementMeshesBuilder eb(fbb);
+    eb.add_error_estimate(ed.error_estimate);
+    return eb.Finish();
+  }
+  check_element_arrays(ed, e, terms, sizes);
 
   const FloatParams pos_params{o.position_max_abs_error};
   const FloatParams field_params{o.field_max_abs_error};
-  std::vector<flatbuffers::Offset<fb::ElementMeshes>> elements;
-  for (int e = 0; e < E; ++e) {
-    const ElementData& ed = c.elements[static_cast<std::size_t>(e)];
-    int terms = 0;
-    c.basis->element_samples(e, &terms);
-    const std::size_t nv = ed.vertex_count;
-    const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
-    if (nv == 0) {  // no meshes: only an infeasible element may lack them
-      if (c.basis->element_feasible(e))
-        bad("feasible element " + std::to_string(e) + " without meshes");
-      fb::ElementMeshesBuilder eb(fbb);
-      eb.add_error_estimate(ed.error_estimate);
-      elements.push_back(eb.Finish());
-      continue;
-    }
-    if (ed.tets.size() % 4 || ed.triangles.size() % 3 || ed.triangle_tags.size() != ntri)
-      bad("element " + std::to_string(e) + ": topology array sizes");
-    if (ed.canonical.size() != nv * 3) bad("element " + std::to_string(e) + ": canonical size");
-    if (static_cast<int>(ed.positions.size()) != terms)
-      bad("element " + std::to_string(e) + ": one position array per term needed");
-    const std::size_t field_size = nv * field_values_per_vertex + ntet * field_values_per_tet;
-    if (!(ed.fields.empty() && field_size == 0) && static_cast<int>(ed.fields.size()) != terms)
-      bad("element " + std::to_string(e) + ": one field array per term needed");
-    for (const auto& a : ed.positions)
-      if (a.size() != nv * 3) bad("element " + std::to_string(e) + ": position array size");
-    for (const auto& a : ed.fields)
-      if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
+  const Codec tri_codec = o.index_codec;
+  // Draco has no tet codec (SPEC.md): tets fall back to the fast codec.
+  const Codec tet_codec = o.index_codec == Codec::Draco ? Codec::QuantDeltaZstd : o.index_codec;
+  const auto vc = static_cast<std::uint32_t>(nv);
+  const fb::BlobRef tets =
+      sink.add(encode_indices(tet_codec, ed.tets.data(), ntet, 4, vc), tet_codec);
+  const fb::BlobRef tris =
+      sink.add(encode_indices(tri_codec, ed.triangles.data(), ntri, 3, vc), tri_codec);
+  std::vector<std::uint8_t> tag_bytes(ntri * 4);
+  if (ntri) std::memcpy(tag_bytes.data(), ed.triangle_tags.data(), tag_bytes.size());
+  const fb::BlobRef tags = sink.add(tag_bytes, Codec::Raw);
+  const fb::BlobRef canonical = sink.add(
+      encode_floats(Codec::Raw, ed.canonical.data(), nv, 3, nullptr, FloatParams{}), Codec::Raw);
+  std::vector<fb::BlobRef> pos, fields;
+  for (const auto& a : ed.positions)
+    pos.push_back(
+        sink.add(encode_floats(o.float_codec, a.data(), nv, 3, ed.canonical.data(), pos_params),
+                 o.float_codec));
+  for (const auto& a : ed.fields)
+    fields.push_back(sink.add(
+        encode_floats(o.float_codec, a.data(), a.size(), 1, nullptr, field_params), o.float_codec));
+  const auto pos_v = fbb.CreateVectorOfStructs(pos);
+  const auto field_v = fbb.CreateVectorOfStructs(fields);
+  fb::ElementMeshesBuilder eb(fbb);
+  eb.add_vertex_count(vc);
+  eb.add_tet_count(static_cast<std::uint32_t>(ntet));
+  eb.add_triangle_count(static_cast<std::uint32_t>(ntri));
+  eb.add_tets(&tets);
+  eb.add_triangles(&tris);
+  eb.add_triangle_tags(&tags);
+  eb.add_positions(pos_v);
+  eb.add_fields(field_v);
+  eb.add_error_estimate(ed.error_estimate);
+  eb.add_canonical_positions(&canonical);
+  return eb.Finish();
+}
 
-    const Codec tri_codec = o.index_codec;
-    // Draco has no tet codec (SPEC.md): tets fall back to the fast codec.
-    const Codec tet_codec = o.index_codec == Codec::Draco ? Codec::QuantDeltaZstd : o.index_codec;
-    const auto vc = static_cast<std::uint32_t>(nv);
-    const fb::BlobRef tets =
-        sink.add(encode_indices(tet_codec, ed.tets.data(), ntet, 4, vc), tet_codec);
-    const fb::BlobRef tris =
-        sink.add(encode_indices(tri_codec, ed.triangles.data(), ntri, 3, vc), tri_codec);
-    std::vector<std::uint8_t> tag_bytes(ntri * 4);
-    if (ntri) std::memcpy(tag_bytes.data(), ed.triangle_tags.data(), tag_bytes.size());
-    const fb::BlobRef tags = sink.add(tag_bytes, Codec::Raw);
-    const fb::BlobRef canonical = sink.add(
-        encode_floats(Codec::Raw, ed.canonical.data(), nv, 3, nullptr, FloatParams{}), Codec::Raw);
-    std::vector<fb::BlobRef> pos, fields;
-    for (const auto& a : ed.positions)
-      pos.push_back(
-          sink.add(encode_floats(o.float_codec, a.data(), nv, 3, ed.canonical.data(), pos_params),
-                   o.float_codec));
-    for (const auto& a : ed.fields)
-      fields.push_back(
-          sink.add(encode_floats(o.float_codec, a.data(), a.size(), 1, nullptr, field_params),
-                   o.float_codec));
-    const auto pos_v = fbb.CreateVectorOfStructs(pos);
-    const auto field_v = fbb.CreateVectorOfStructs(fields);
-    fb::ElementMeshesBuilder eb(fbb);
-    eb.add_vertex_count(vc);
-    eb.add_tet_count(static_cast<std::uint32_t>(ntet));
-    eb.add_triangle_count(static_cast<std::uint32_t>(ntri));
-    eb.add_tets(&tets);
-    eb.add_triangles(&tris);
-    eb.add_triangle_tags(&tags);
-    eb.add_positions(pos_v);
-    eb.add_fields(field_v);
-    eb.add_error_estimate(ed.error_estimate);
-    eb.add_canonical_positions(&canonical);
-    elements.push_back(eb.Finish());
-  }
-
+// Builds the index around the element tables already in `fbb` and finishes the buffer.
+// *any_unit tells whether a field has a unit (the file then needs format 1.1).
+void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, const WriteOptions& o,
+                 const std::vector<flatbuffers::Offset<fb::ElementMeshes>>& elements,
+                 bool* any_unit) {
+  const core::CompiledBasis::Parts& p = c.basis->parts();
+  const int K = p.K;
   std::vector<flatbuffers::Offset<fb::Parameter>> params;
   for (const ParameterInfo& pi : c.parameters)
     params.push_back(
         fb::CreateParameterDirect(fbb, pi.name.c_str(), pi.unit.c_str(), pi.lower, pi.upper));
   std::vector<flatbuffers::Offset<fb::FieldDesc>> fields;
-  bool any_unit = false;
+  *any_unit = false;
   for (const FieldInfo& f : c.fields) {
     // Absent, not empty, without a unit: such a file is byte for byte a format 1.0 file.
-    any_unit = any_unit || !f.unit.empty();
+    *any_unit = *any_unit || !f.unit.empty();
     fields.push_back(fb::CreateFieldDescDirect(
         fbb, f.name.c_str(), static_cast<fb::FieldLocation>(f.location),
         static_cast<std::uint8_t>(f.components), static_cast<float>(o.field_max_abs_error),
@@ -191,7 +210,11 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
                                            static_cast<float>(o.position_max_abs_error),
                                            infeasible.empty() ? nullptr : &infeasible);
   fb::FinishAssetBuffer(fbb, asset);
+}
 
+// The file: header, the finished index, then the blob section (SPEC.md, "Layout").
+std::vector<std::uint8_t> assemble_file(const flatbuffers::FlatBufferBuilder& fbb,
+                                        const std::vector<std::uint8_t>& section, bool any_unit) {
   const std::uint64_t index_offset = kHeaderSize;  // 48: 8-aligned
   std::vector<std::uint8_t> file(kHeaderSize + fbb.GetSize() + section.size(), 0);
   std::memcpy(file.data() + kHeaderSize, fbb.GetBufferPointer(), fbb.GetSize());
@@ -208,6 +231,21 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
   put_le(file, 32, fbb.GetSize(), 8);
   put_le(file, 40, XXH64(fbb.GetBufferPointer(), fbb.GetSize(), 0), 8);
   return file;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions& o) {
+  const FieldSizes sizes = check_content(c);
+  std::vector<std::uint8_t> section;
+  BlobSink sink(section);
+  flatbuffers::FlatBufferBuilder fbb(1 << 16);
+  std::vector<flatbuffers::Offset<fb::ElementMeshes>> elements;
+  for (int e = 0; e < c.basis->element_count(); ++e)
+    elements.push_back(write_element(fbb, sink, c, e, o, sizes));
+  bool any_unit = false;
+  write_index(fbb, c, o, elements, &any_unit);
+  return assemble_file(fbb, section, any_unit);
 }
 
 void check_asset_file_writable(const std::string& path) {

@@ -291,82 +291,89 @@ ExportSummary write_obj(const std::string& path, const ExportMesh& m) {
   return {s.vertices.size(), m.triangle_count, out.size()};
 }
 
-ExportSummary write_gltf(const std::string& path, const ExportMesh& m) {
-  check_mesh(m);
-  // Accessors must have count >= 1 (glTF 2.0, accessor.count), so an empty surface has no
-  // valid glTF form.
-  if (m.triangle_count == 0) throw std::runtime_error("the mesh has no boundary triangles");
-  const Surface s = boundary_surface(m);
-  const std::size_t Vs = s.vertices.size();
-  const bool glb = ends_with(path, ".glb");
+namespace {
 
-  constexpr int kFloat = 5126, kUnsignedInt = 5125;
-  constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-  constexpr int kTriangles = 4;
+constexpr int kGltfFloat = 5126, kGltfUnsignedInt = 5125;
+constexpr int kGltfArrayBuffer = 34962, kGltfElementArrayBuffer = 34963;
+constexpr int kGltfTriangles = 4;
 
-  // Buffer layout: positions, indices, then one array per exported field; every part is a
-  // multiple of 4 bytes long, so every accessor is aligned to its component size.
-  LeBytes bin;
+// One glTF application attribute: an exported per-vertex field and its value range.
+struct GltfAttribute {
+  std::string semantic, source;
+  int components;
+  std::vector<float> lo, hi;
+};
+
+// The binary buffer of a glTF export and what its accessors say about it. Layout: positions,
+// indices, then one array per exported field; every part is a multiple of 4 bytes long, so every
+// accessor is aligned to its component size.
+struct GltfBuffer {
   struct View {
     std::size_t offset, length;
     int target;
   };
+  LeBytes bin;
   std::vector<View> views;
-  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  std::size_t start = bin.size();
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};                                // position range
+  std::uint32_t imin = std::numeric_limits<std::uint32_t>::max(), imax = 0;  // index range
+  std::vector<GltfAttribute> attrs;
+};
+
+// Appends the surface's positions and triangle indices, with their ranges.
+void gltf_geometry(const ExportMesh& m, const Surface& s, GltfBuffer& b) {
+  const std::size_t Vs = s.vertices.size();
+  std::size_t start = b.bin.size();
   for (std::size_t i = 0; i < Vs; ++i) {
     const float* p = m.positions + 3 * static_cast<std::size_t>(s.vertices[i]);
     for (int c = 0; c < 3; ++c) {
-      lo[c] = i == 0 ? p[c] : std::min(lo[c], p[c]);
-      hi[c] = i == 0 ? p[c] : std::max(hi[c], p[c]);
-      bin.f32(p[c]);
+      b.lo[c] = i == 0 ? p[c] : std::min(b.lo[c], p[c]);
+      b.hi[c] = i == 0 ? p[c] : std::max(b.hi[c], p[c]);
+      b.bin.f32(p[c]);
     }
   }
-  views.push_back({start, bin.size() - start, kArrayBuffer});
-  start = bin.size();
-  std::uint32_t imin = std::numeric_limits<std::uint32_t>::max(), imax = 0;
+  b.views.push_back({start, b.bin.size() - start, kGltfArrayBuffer});
+  start = b.bin.size();
   for (const std::uint32_t i : s.triangles) {
-    imin = std::min(imin, i);
-    imax = std::max(imax, i);
-    bin.u32(i);
+    b.imin = std::min(b.imin, i);
+    b.imax = std::max(b.imax, i);
+    b.bin.u32(i);
   }
-  views.push_back({start, bin.size() - start, kElementArrayBuffer});
+  b.views.push_back({start, b.bin.size() - start, kGltfElementArrayBuffer});
+}
 
-  struct Attr {
-    std::string semantic, source;
-    int components;
-    std::vector<float> lo, hi;
-  };
-  std::vector<Attr> attrs;
+// Appends one application attribute per exportable field: glTF allows per-vertex float data of
+// 1-4 components only. The semantic is the field's name upper-cased with other characters as
+// '_', made unique by a suffix.
+void gltf_attributes(const ExportMesh& m, const Surface& s, GltfBuffer& b) {
+  const std::size_t Vs = s.vertices.size();
   for (const ExportMesh::Field& f : m.fields) {
-    // Application attributes: per-vertex float data of 1-4 components only.
     if (f.per_tet || f.components < 1 || f.components > 4) continue;
     std::string sem = "_";
     for (const char c : f.name)
       sem += std::isalnum(static_cast<unsigned char>(c))
                  ? static_cast<char>(std::toupper(static_cast<unsigned char>(c)))
                  : '_';
-    for (const Attr& a : attrs)
-      if (a.semantic == sem) sem += "_" + std::to_string(attrs.size());
-    Attr a{sem, f.name, f.components, std::vector<float>(f.components),
-           std::vector<float>(f.components)};
-    start = bin.size();
+    for (const GltfAttribute& a : b.attrs)
+      if (a.semantic == sem) sem += "_" + std::to_string(b.attrs.size());
+    GltfAttribute a{sem, f.name, f.components, std::vector<float>(f.components),
+                    std::vector<float>(f.components)};
+    const std::size_t start = b.bin.size();
     for (std::size_t i = 0; i < Vs; ++i) {
       const float* v = f.values + static_cast<std::size_t>(f.components) * s.vertices[i];
       for (int c = 0; c < f.components; ++c) {
         const auto cc = static_cast<std::size_t>(c);
         a.lo[cc] = i == 0 ? v[c] : std::min(a.lo[cc], v[c]);
         a.hi[cc] = i == 0 ? v[c] : std::max(a.hi[cc], v[c]);
-        bin.f32(v[c]);
+        b.bin.f32(v[c]);
       }
     }
-    views.push_back({start, bin.size() - start, kArrayBuffer});
-    attrs.push_back(std::move(a));
+    b.views.push_back({start, b.bin.size() - start, kGltfArrayBuffer});
+    b.attrs.push_back(std::move(a));
   }
+}
 
-  std::string json;
-  JsonWriter w(json, glb ? 0 : 1);
-  w.begin_object();
+// The asset, scene, node and mesh objects: one mesh of one triangle primitive.
+void gltf_scene(JsonWriter& w, const ExportMesh& m, const std::vector<GltfAttribute>& attrs) {
   w.key("asset")
       .begin_object()
       .field("version", "2.0")
@@ -384,82 +391,109 @@ ExportSummary write_gltf(const std::string& path, const ExportMesh& m) {
   for (std::size_t a = 0; a < attrs.size(); ++a)
     w.field(attrs[a].semantic, static_cast<int>(a + 2));
   w.end_object();
-  w.field("indices", 1).field("mode", kTriangles);
+  w.field("indices", 1).field("mode", kGltfTriangles);
   w.end_object().end_array();
   if (!attrs.empty()) {
     // Which field each application attribute holds, since the semantic is mangled.
     w.key("extras").begin_object().key("fields").begin_object();
-    for (const Attr& a : attrs) w.field(a.semantic, a.source);
+    for (const GltfAttribute& a : attrs) w.field(a.semantic, a.source);
     w.end_object().end_object();
   }
   w.end_object().end_array();
+}
 
+// The accessors (positions, indices, attributes: one per buffer view, with the min and max
+// glTF requires of positions) and the buffer views.
+void gltf_accessors(JsonWriter& w, const Surface& s, const GltfBuffer& b) {
+  const std::size_t Vs = s.vertices.size();
   auto vec_type = [](int n) {
     return n == 1 ? "SCALAR" : n == 2 ? "VEC2" : n == 3 ? "VEC3" : "VEC4";
   };
   w.key("accessors").begin_array();
-  w.begin_object().field("bufferView", 0).field("componentType", kFloat);
+  w.begin_object().field("bufferView", 0).field("componentType", kGltfFloat);
   w.field("count", static_cast<std::uint64_t>(Vs)).field("type", "VEC3");
   w.key("min").begin_array();
-  for (const float v : lo) w.value_float(v);
+  for (const float v : b.lo) w.value_float(v);
   w.end_array().key("max").begin_array();
-  for (const float v : hi) w.value_float(v);
+  for (const float v : b.hi) w.value_float(v);
   w.end_array().end_object();
-  w.begin_object().field("bufferView", 1).field("componentType", kUnsignedInt);
+  w.begin_object().field("bufferView", 1).field("componentType", kGltfUnsignedInt);
   w.field("count", static_cast<std::uint64_t>(s.triangles.size())).field("type", "SCALAR");
-  w.key("min").begin_array().value(imin).end_array();
-  w.key("max").begin_array().value(imax).end_array().end_object();
-  for (std::size_t a = 0; a < attrs.size(); ++a) {
-    w.begin_object().field("bufferView", static_cast<int>(a + 2)).field("componentType", kFloat);
-    w.field("count", static_cast<std::uint64_t>(Vs)).field("type", vec_type(attrs[a].components));
+  w.key("min").begin_array().value(b.imin).end_array();
+  w.key("max").begin_array().value(b.imax).end_array().end_object();
+  for (std::size_t a = 0; a < b.attrs.size(); ++a) {
+    w.begin_object()
+        .field("bufferView", static_cast<int>(a + 2))
+        .field("componentType", kGltfFloat);
+    w.field("count", static_cast<std::uint64_t>(Vs)).field("type", vec_type(b.attrs[a].components));
     w.key("min").begin_array();
-    for (const float v : attrs[a].lo) w.value_float(v);
+    for (const float v : b.attrs[a].lo) w.value_float(v);
     w.end_array().key("max").begin_array();
-    for (const float v : attrs[a].hi) w.value_float(v);
+    for (const float v : b.attrs[a].hi) w.value_float(v);
     w.end_array().end_object();
   }
   w.end_array();
 
   w.key("bufferViews").begin_array();
-  for (const View& v : views) {
+  for (const GltfBuffer::View& v : b.views) {
     w.begin_object().field("buffer", 0).field("byteOffset", static_cast<std::uint64_t>(v.offset));
     w.field("byteLength", static_cast<std::uint64_t>(v.length)).field("target", v.target);
     w.end_object();
   }
   w.end_array();
+}
+
+// GLB: 12-byte header, a JSON chunk padded with spaces and a BIN chunk padded with zeros, both
+// to 4 bytes (glTF 2.0, "Binary glTF Layout"). Throws std::runtime_error past 4 GiB.
+std::string glb_file(std::string json, LeBytes& bin) {
+  while (json.size() % 4 != 0) json += ' ';
+  bin.pad_to(4, '\0');
+  const std::uint64_t total = 12 + 8 + json.size() + 8 + bin.size();
+  if (total > std::numeric_limits<std::uint32_t>::max())
+    throw std::runtime_error("the mesh is too large for a .glb (4 GiB); write a .gltf");
+  LeBytes file;
+  file.u32(0x46546C67);  // "glTF"
+  file.u32(2);
+  file.u32(static_cast<std::uint32_t>(total));
+  file.u32(static_cast<std::uint32_t>(json.size()));
+  file.u32(0x4E4F534A);  // "JSON"
+  file.str() += json;
+  file.u32(static_cast<std::uint32_t>(bin.size()));
+  file.u32(0x004E4942);  // "BIN\0"
+  file.str() += bin.str();
+  return std::move(file.str());
+}
+
+}  // namespace
+
+ExportSummary write_gltf(const std::string& path, const ExportMesh& m) {
+  check_mesh(m);
+  // Accessors must have count >= 1 (glTF 2.0, accessor.count), so an empty surface has no
+  // valid glTF form.
+  if (m.triangle_count == 0) throw std::runtime_error("the mesh has no boundary triangles");
+  const Surface s = boundary_surface(m);
+  const bool glb = ends_with(path, ".glb");
+
+  GltfBuffer b;
+  gltf_geometry(m, s, b);
+  gltf_attributes(m, s, b);
+
+  std::string json;
+  JsonWriter w(json, glb ? 0 : 1);
+  w.begin_object();
+  gltf_scene(w, m, b.attrs);
+  gltf_accessors(w, s, b);
   w.key("buffers").begin_array().begin_object();
-  w.field("byteLength", static_cast<std::uint64_t>(bin.size()));
+  w.field("byteLength", static_cast<std::uint64_t>(b.bin.size()));
   if (!glb)
-    w.field("uri",
-            "data:application/octet-stream;base64," + base64_encode(bin.str().data(), bin.size()));
+    w.field("uri", "data:application/octet-stream;base64," +
+                       base64_encode(b.bin.str().data(), b.bin.size()));
   w.end_object().end_array();
   w.end_object();
 
-  std::string out;
-  if (!glb) {
-    out = std::move(json);
-  } else {
-    // GLB: 12-byte header, a JSON chunk padded with spaces and a BIN chunk padded with zeros,
-    // both to 4 bytes (glTF 2.0, "Binary glTF Layout").
-    while (json.size() % 4 != 0) json += ' ';
-    bin.pad_to(4, '\0');
-    const std::uint64_t total = 12 + 8 + json.size() + 8 + bin.size();
-    if (total > std::numeric_limits<std::uint32_t>::max())
-      throw std::runtime_error("the mesh is too large for a .glb (4 GiB); write a .gltf");
-    LeBytes file;
-    file.u32(0x46546C67);  // "glTF"
-    file.u32(2);
-    file.u32(static_cast<std::uint32_t>(total));
-    file.u32(static_cast<std::uint32_t>(json.size()));
-    file.u32(0x4E4F534A);  // "JSON"
-    file.str() += json;
-    file.u32(static_cast<std::uint32_t>(bin.size()));
-    file.u32(0x004E4942);  // "BIN\0"
-    file.str() += bin.str();
-    out = std::move(file.str());
-  }
+  const std::string out = glb ? glb_file(std::move(json), b.bin) : std::move(json);
   write_file(path, out);
-  return {Vs, m.triangle_count, out.size()};
+  return {s.vertices.size(), m.triangle_count, out.size()};
 }
 
 ExportMesh export_mesh_of(const cadinterp_asset* asset, const cadinterp_mesh& mesh,
