@@ -44,6 +44,7 @@
 #include <stdint.h>
 
 #include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_status.h"
 
 #ifdef __cplusplus
 extern "C" {
