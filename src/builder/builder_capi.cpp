@@ -191,6 +191,9 @@ CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
 CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
                                                         const cadinterp_build_options* options,
                                                         cadinterp_builder** out) {
+  // Every failure leaves *out NULL (the header's promise), so a caller that destroys it
+  // unconditionally never frees a stale pointer.
+  if (out) *out = nullptr;
   return guard(&t_create_error, [&] {
     if (!out) throw std::invalid_argument("out is NULL");
     if (!host) throw std::invalid_argument("host is NULL");

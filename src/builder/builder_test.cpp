@@ -405,15 +405,24 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
 
 TEST(Build, RejectsBadArgumentsWithNamedErrors) {
   BoxHost h(2);
-  cadinterp_builder* b = nullptr;
+  // A failed create sets *out to NULL, whatever it held before.
+  int not_a_builder = 0;
+  cadinterp_builder* const stale = reinterpret_cast<cadinterp_builder*>(&not_a_builder);
+  cadinterp_builder* b = stale;
   cadinterp_build_options o = small_options();
   o.degree = 2;
   EXPECT_EQ(cadinterp_builder_create(&h.host, &o, &b), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(cadinterp_builder_open_error()).find("degree"), std::string::npos);
   EXPECT_EQ(b, nullptr);
+  b = stale;
+  EXPECT_EQ(cadinterp_builder_create(nullptr, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(b, nullptr);
+  EXPECT_EQ(cadinterp_builder_create(&h.host, nullptr, nullptr), CADINTERP_E_INVALID_ARGUMENT);
   cadinterp_host bad = h.host;
   bad.regenerate = nullptr;
+  b = stale;
   EXPECT_EQ(cadinterp_builder_create(&bad, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(b, nullptr);
   std::vector<cadinterp_parameter_desc> p = h.params;
   p[1].upper = p[1].lower;
   bad = h.host;
