@@ -240,6 +240,7 @@ typedef struct cadinterp_build_options {
 CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* options);
 
 typedef struct cadinterp_build_report {
+  size_t struct_size;    /**< sizeof(cadinterp_build_report), set by the caller */
   int samples;           /**< basis samples of the asset */
   int host_evaluations;  /**< distinct points evaluated by the host in this run */
   int store_hits;        /**< points read from the sample store instead */
@@ -285,11 +286,13 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* builder,
                                                      const char* output_path);
 /** The report of the last run, finished or failed (zeros before the first). After a failure it
  * counts what was done before it: host_evaluations, store_hits, infeasible_points; `samples` is
- * the points requested so far when the refinement did not finish, `elements` the leaves so far. */
+ * the points requested so far when the refinement did not finish, `elements` the leaves so far.
+ * Fills at most out->struct_size bytes (grow-by-addition) and sets out->struct_size to the bytes
+ * filled. */
 CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* builder,
                                                         cadinterp_build_report* out);
 
-/** What cadinterp_build_report cannot carry (it has no size member, so it cannot grow). */
+/** Stage times and counts of a run, beside cadinterp_build_report. */
 typedef struct cadinterp_build_stages {
   size_t struct_size;     /**< sizeof(cadinterp_build_stages), set by the caller */
   int points_requested;   /**< distinct sample points the refinement asked for */

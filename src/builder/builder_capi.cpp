@@ -273,8 +273,10 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const
 
 CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* b,
                                                         cadinterp_build_report* out) {
-  if (!b || !out) return CADINTERP_E_INVALID_ARGUMENT;
-  *out = b->report;
+  if (!b || !out || out->struct_size < sizeof(size_t)) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp_build_report r = b->report;
+  r.struct_size = std::min(out->struct_size, sizeof r);
+  std::memcpy(out, &r, r.struct_size);
   return CADINTERP_OK;
 }
 

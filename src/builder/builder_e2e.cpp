@@ -40,6 +40,7 @@ struct WorkspaceDestroyer {
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path) {
   BuildOutcome r;
+  r.report.struct_size = sizeof r.report;
   r.stages.struct_size = sizeof r.stages;
   cadinterp_builder* b = nullptr;
   r.status = cadinterp_builder_create(&host, &options, &b);

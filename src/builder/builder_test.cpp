@@ -438,7 +438,11 @@ TEST(Build, RejectsBadArgumentsWithNamedErrors) {
             std::string::npos)
       << cadinterp_builder_error(b);
   cadinterp_build_report rep;
+  std::memset(&rep, 0, sizeof rep);
+  EXPECT_EQ(cadinterp_builder_report(b, &rep), CADINTERP_E_INVALID_ARGUMENT);  // no struct_size
+  rep.struct_size = sizeof rep;
   ASSERT_EQ(cadinterp_builder_report(b, &rep), CADINTERP_OK);
+  EXPECT_EQ(rep.struct_size, sizeof rep);
   EXPECT_EQ(rep.host_evaluations, 0);
   cadinterp_builder_destroy(b);
   cadinterp_builder_destroy(nullptr);
@@ -663,6 +667,7 @@ TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
         << cadinterp_builder_error(b);
     EXPECT_FALSE(std::filesystem::exists(path));
     cadinterp_build_report c{};
+    c.struct_size = sizeof c;
     ASSERT_EQ(cadinterp_builder_report(b, &c), CADINTERP_OK);
     EXPECT_GE(c.host_evaluations, 3);
     EXPECT_EQ(c.infeasible_points, c.host_evaluations);
@@ -693,6 +698,18 @@ TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
     EXPECT_EQ(small.points_requested, st.points_requested);
     unsigned char untouched;
     std::memcpy(&untouched, reinterpret_cast<const unsigned char*>(&small) + small.struct_size, 1);
+    EXPECT_EQ(untouched, 0xab);
+    // The same for the report: a shorter struct gets its own bytes and nothing past them.
+    cadinterp_build_report short_report;
+    std::memset(&short_report, 0xab, sizeof short_report);
+    short_report.struct_size = offsetof(cadinterp_build_report, infeasible_points);
+    ASSERT_EQ(cadinterp_builder_report(b, &short_report), CADINTERP_OK);
+    EXPECT_EQ(short_report.struct_size, offsetof(cadinterp_build_report, infeasible_points));
+    EXPECT_EQ(short_report.host_evaluations, c.host_evaluations);
+    EXPECT_EQ(short_report.store_hits, c.store_hits);
+    std::memcpy(&untouched,
+                reinterpret_cast<const unsigned char*>(&short_report) + short_report.struct_size,
+                1);
     EXPECT_EQ(untouched, 0xab);
     cadinterp_builder_destroy(b);
     std::filesystem::remove(h.log_path);

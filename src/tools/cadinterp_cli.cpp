@@ -1422,6 +1422,7 @@ int cmd_build(const std::vector<std::string>& args) {
   if (progress.line_open) std::fputs("\r\x1b[K", stderr);
 
   cadinterp_build_report r{};
+  r.struct_size = sizeof r;
   cadinterp_builder_report(builder.get(), &r);
   if (s == CADINTERP_E_CANCELLED) {
     throw RuntimeFailure(describe(

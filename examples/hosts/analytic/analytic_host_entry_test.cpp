@@ -99,6 +99,7 @@ Build build(const cadinterp_host* host, const std::string& path) {
   }
   b.status = cadinterp_builder_run(builder, path.c_str());
   b.error = cadinterp_builder_error(builder);
+  b.report.struct_size = sizeof b.report;
   cadinterp_builder_report(builder, &b.report);
   cadinterp_builder_destroy(builder);
   return b;
