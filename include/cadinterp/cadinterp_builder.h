@@ -55,6 +55,15 @@ typedef struct cadinterp_sample cadinterp_sample;
 /** A build in progress or finished: options, host, report and last error (opaque). */
 typedef struct cadinterp_builder cadinterp_builder;
 
+/* ---- Versions ---------------------------------------------------------------------------- */
+
+/** Version "MAJOR.MINOR.PATCH" of the builder library actually linked (static storage; never
+ * NULL). It may differ from the runtime's cadinterp_version when the two libraries come from
+ * different releases. Thread-safe. */
+CADINTERP_API const char* cadinterp_builder_version(void);
+/** CADINTERP_VERSION_NUMBER of the builder library actually linked. Thread-safe. */
+CADINTERP_API unsigned cadinterp_builder_version_number(void);
+
 /* ---- Writing a sample (called by the host from its callbacks) ---------------------------- */
 
 /**

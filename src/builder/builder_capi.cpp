@@ -176,6 +176,17 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
   });
 }
 
+CADINTERP_API const char* cadinterp_builder_version(void) {
+#define CADINTERP_BUILDER_STR2(x) #x
+#define CADINTERP_BUILDER_STR(x) CADINTERP_BUILDER_STR2(x)
+  return CADINTERP_BUILDER_STR(CADINTERP_VERSION_MAJOR) "." CADINTERP_BUILDER_STR(
+      CADINTERP_VERSION_MINOR) "." CADINTERP_BUILDER_STR(CADINTERP_VERSION_PATCH);
+#undef CADINTERP_BUILDER_STR
+#undef CADINTERP_BUILDER_STR2
+}
+
+CADINTERP_API unsigned cadinterp_builder_version_number(void) { return CADINTERP_VERSION_NUMBER; }
+
 CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
   if (!o) return;
   std::memset(o, 0, sizeof *o);
