@@ -46,6 +46,18 @@
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_status.h"
 
+/* Marks a declaration kept for one release under an old name; compilers warn where it is used.
+ * Define CADINTERP_DEPRECATED(msg) as empty before including this header to silence them. */
+#ifndef CADINTERP_DEPRECATED
+#if defined(_MSC_VER)
+#define CADINTERP_DEPRECATED(msg) __declspec(deprecated(msg))
+#elif defined(__GNUC__) || defined(__clang__)
+#define CADINTERP_DEPRECATED(msg) __attribute__((deprecated(msg)))
+#else
+#define CADINTERP_DEPRECATED(msg)
+#endif
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -270,13 +282,17 @@ typedef struct cadinterp_build_report {
  * Creates a builder for `host` with `options` (NULL: defaults). Both are copied (the host's
  * strings and parameter array too; `user` is kept as a pointer and must outlive the builder).
  * @return CADINTERP_E_INVALID_ARGUMENT with a message for an inconsistent host or options;
- *         *out is NULL then and the message is available from cadinterp_builder_open_error().
+ *         *out is NULL then and the message is available from cadinterp_builder_create_error().
  * Thread-safety: safe; the builder is used by one thread at a time.
  */
 CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
                                                         const cadinterp_build_options* options,
                                                         cadinterp_builder** out);
 /** Message of the calling thread's last failed cadinterp_builder_create (never NULL). */
+CADINTERP_API const char* cadinterp_builder_create_error(void);
+/** Deprecated name of cadinterp_builder_create_error (a create, not an open); same result. Kept
+ * exported for one release, then removed. */
+CADINTERP_DEPRECATED("use cadinterp_builder_create_error")
 CADINTERP_API const char* cadinterp_builder_open_error(void);
 /** Destroys a builder; NULL is a no-op. */
 CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* builder);

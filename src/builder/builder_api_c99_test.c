@@ -42,7 +42,7 @@ int main(void) {
   /* A failed create sets *out to NULL and leaves a message for this thread. */
   CHECK(cadinterp_builder_create(NULL, &options, &builder) == CADINTERP_E_INVALID_ARGUMENT);
   CHECK(builder == NULL);
-  CHECK(strlen(cadinterp_builder_open_error()) > 0);
+  CHECK(strlen(cadinterp_builder_create_error()) > 0);
   cadinterp_builder_destroy(NULL);
 
   memset(&report, 0, sizeof report);

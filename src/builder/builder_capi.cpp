@@ -253,7 +253,11 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   });
 }
 
-CADINTERP_API const char* cadinterp_builder_open_error(void) { return t_create_error.c_str(); }
+CADINTERP_API const char* cadinterp_builder_create_error(void) { return t_create_error.c_str(); }
+
+CADINTERP_API const char* cadinterp_builder_open_error(void) {
+  return cadinterp_builder_create_error();
+}
 
 CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* b) { delete b; }
 

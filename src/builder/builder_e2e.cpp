@@ -45,7 +45,7 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
   cadinterp_builder* b = nullptr;
   r.status = cadinterp_builder_create(&host, &options, &b);
   if (r.status != CADINTERP_OK) {
-    r.error = cadinterp_builder_open_error();
+    r.error = cadinterp_builder_create_error();
     return r;
   }
   r.status = cadinterp_builder_run(b, output_path.c_str());

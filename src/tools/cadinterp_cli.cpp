@@ -1398,7 +1398,7 @@ int cmd_build(const std::vector<std::string>& args) {
   cadinterp_status s = cadinterp_builder_create(host.host, &o, &raw);
   if (s != CADINTERP_OK)
     throw RuntimeFailure("cannot create the builder: " +
-                         describe(s, cadinterp_builder_open_error()));
+                         describe(s, cadinterp_builder_create_error()));
   std::unique_ptr<cadinterp_builder, BuilderDestroyer> builder(raw);
 
   if (!quiet) {

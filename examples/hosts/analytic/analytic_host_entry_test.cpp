@@ -94,7 +94,7 @@ Build build(const cadinterp_host* host, const std::string& path) {
   cadinterp_builder* builder = nullptr;
   b.status = cadinterp_builder_create(host, &o, &builder);
   if (b.status != CADINTERP_OK) {
-    b.error = cadinterp_builder_open_error();
+    b.error = cadinterp_builder_create_error();
     return b;
   }
   b.status = cadinterp_builder_run(builder, path.c_str());
