@@ -12,6 +12,13 @@
 #error "the libraries' SOVERSION is CADINTERP_ABI_VERSION: update this test with it"
 #endif
 
+static cadinterp_status never_called(void* user, const double* x, cadinterp_sample* out) {
+  (void)user;
+  (void)x;
+  (void)out;
+  return CADINTERP_E_INTERNAL;
+}
+
 static int failures = 0, checks = 0;
 #define CHECK(cond)                                                      \
   do {                                                                   \
@@ -44,6 +51,30 @@ int main(void) {
   CHECK(builder == NULL);
   CHECK(strlen(cadinterp_builder_create_error()) > 0);
   cadinterp_builder_destroy(NULL);
+
+  /* Options that only a run used to refuse are refused by create. */
+  {
+    const cadinterp_parameter_desc parameter = {"width", "mm", 1.0, 2.0};
+    cadinterp_host host;
+    memset(&host, 0, sizeof host);
+    host.struct_size = sizeof host;
+    host.name = "c99";
+    host.parameter_count = 1;
+    host.parameters = &parameter;
+    host.regenerate = never_called;
+    CHECK(cadinterp_builder_create(&host, &options, &builder) == CADINTERP_OK);
+    cadinterp_builder_destroy(builder);
+    options.position_max_abs_error = -1.0;
+    CHECK(cadinterp_builder_create(&host, &options, &builder) == CADINTERP_E_INVALID_ARGUMENT);
+    CHECK(builder == NULL);
+    CHECK(strstr(cadinterp_builder_create_error(), "position_max_abs_error") != NULL);
+    options.position_max_abs_error = 0.0;
+    options.simulate_mapped = 1; /* the host has no simulate callback */
+    CHECK(cadinterp_builder_create(&host, &options, &builder) == CADINTERP_E_INVALID_ARGUMENT);
+    CHECK(builder == NULL);
+    CHECK(strstr(cadinterp_builder_create_error(), "simulate_mapped") != NULL);
+    options.simulate_mapped = 0;
+  }
 
   memset(&report, 0, sizeof report);
   report.struct_size = sizeof report;

@@ -239,6 +239,12 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
     if (bo.max_depth < 1 || bo.max_depth > 29)
       throw std::invalid_argument("options: max_depth must be 1..29");
     if (bo.threads < 0) throw std::invalid_argument("options: threads must be >= 0");
+    // Checked again by the build; refused here so that create reports every inconsistent
+    // option, as its header says, before any run.
+    if (!(bo.position_max_abs_error >= 0))
+      throw std::invalid_argument("options: position_max_abs_error must be >= 0");
+    if (bo.simulate_mapped && !host->simulate)
+      throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
     b->progress = o.progress;
     b->progress_user = o.progress_user;
     if (b->progress) {
