@@ -7,6 +7,8 @@
 #include <new>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "builder/build.h"
 #include "builder/host_call.h"
@@ -81,11 +83,15 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_mesh(cadinterp_sample* s, co
     if (!s || s->mesh_set || (nv && !V) || (nt && !T) || (nf && (!F || !tags)) || nv >= kMaxCount ||
         nt >= kMaxCount || nf >= kMaxCount)
       return CADINTERP_E_INVALID_ARGUMENT;
+    // Copied aside first: running out of memory halfway leaves the sample as it was.
+    std::vector<double> vertices(V, V + 3 * nv);
+    std::vector<uint32_t> tets(T, T + 4 * nt), triangles(F, F + 3 * nf);
+    std::vector<int32_t> triangle_tags(tags, tags + nf);
     Sample& x = s->sample;
-    x.vertices.assign(V, V + 3 * nv);
-    x.tets.assign(T, T + 4 * nt);
-    x.triangles.assign(F, F + 3 * nf);
-    x.triangle_tags.assign(tags, tags + nf);
+    x.vertices = std::move(vertices);
+    x.tets = std::move(tets);
+    x.triangles = std::move(triangles);
+    x.triangle_tags = std::move(triangle_tags);
     s->mesh_set = true;
     return CADINTERP_OK;
   });
