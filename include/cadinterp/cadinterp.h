@@ -24,6 +24,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "cadinterp/cadinterp_status.h"
 #include "cadinterp/cadinterp_version.h"
 
 #if defined(_WIN32)
@@ -39,28 +40,6 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/** Status codes. Values are explicit and only ever appended. */
-typedef enum cadinterp_status {
-  CADINTERP_OK = 0,
-  CADINTERP_E_INVALID_ARGUMENT = 1, /**< NULL where a value is needed, index out of range... */
-  CADINTERP_E_OUT_OF_MEMORY = 2,
-  CADINTERP_E_IO = 3,                  /**< the file cannot be opened, mapped or read */
-  CADINTERP_E_BAD_MAGIC = 4,           /**< not a cadinterp asset */
-  CADINTERP_E_UNSUPPORTED_VERSION = 5, /**< another format major, or a newer minor */
-  CADINTERP_E_TRUNCATED = 6,           /**< the file is shorter than its header says */
-  CADINTERP_E_CORRUPT_INDEX = 7,       /**< the index fails verification */
-  CADINTERP_E_CHECKSUM = 8,            /**< stored bytes differ from their checksum */
-  CADINTERP_E_OUT_OF_RANGE = 9,        /**< a blob lies outside the file (never a caller's index) */
-  CADINTERP_E_LIMIT = 10,              /**< a count exceeds the reader's limits */
-  CADINTERP_E_CORRUPT_BLOB = 11,       /**< mesh data fails to decode or holds invalid values */
-  CADINTERP_E_OUTSIDE_DOMAIN = 12,     /**< x is outside the parameter box (or not finite) */
-  CADINTERP_E_INFEASIBLE = 13,         /**< x lies where the model could not be built */
-  CADINTERP_E_INTERNAL = 14,           /**< a bug: please report it with the message */
-  CADINTERP_E_NOT_FOUND = 15,          /**< no field of that name */
-  CADINTERP_E_CANCELLED = 16,          /**< the caller cancelled (builder progress callback) */
-  CADINTERP_E_STORE_MISMATCH = 17      /**< a sample store written for another model/box */
-} cadinterp_status;
 
 /** An opened asset (opaque). */
 typedef struct cadinterp_asset cadinterp_asset;

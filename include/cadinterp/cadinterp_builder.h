@@ -44,17 +44,52 @@
 #include <stdint.h>
 
 #include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_status.h"
+
+/* Marks a declaration kept for one release under an old name; compilers warn where it is used.
+ * Define CADINTERP_DEPRECATED(msg) as empty before including this header to silence them. */
+#ifndef CADINTERP_DEPRECATED
+#if defined(_MSC_VER)
+#define CADINTERP_DEPRECATED(msg) __declspec(deprecated(msg))
+#elif defined(__GNUC__) || defined(__clang__)
+#define CADINTERP_DEPRECATED(msg) __attribute__((deprecated(msg)))
+#else
+#define CADINTERP_DEPRECATED(msg)
+#endif
+#endif
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/** What one host evaluation produced, written by the host's callbacks (builder-owned, opaque). */
+/** What one host evaluation produced, written by the host's callbacks. Builder-owned and opaque:
+ * the builder creates one per evaluation and passes it to regenerate, references and simulate at
+ * the same x; the pointer is valid only during those calls and must not be kept. */
 typedef struct cadinterp_sample cadinterp_sample;
-/** A build in progress or finished: options, host, report and last error (opaque). */
+/** A build: its copied host and options, and the report and messages of its last run (opaque).
+ * Created by cadinterp_builder_create, destroyed by cadinterp_builder_destroy. */
 typedef struct cadinterp_builder cadinterp_builder;
 
-/* ---- Writing a sample (called by the host from its callbacks) ---------------------------- */
+/* ---- Versions ---------------------------------------------------------------------------- */
+
+/** Version "MAJOR.MINOR.PATCH" of the builder library actually linked (static storage; never
+ * NULL). It may differ from the runtime's cadinterp_version when the two libraries come from
+ * different releases. Thread-safe. */
+CADINTERP_API const char* cadinterp_builder_version(void);
+/** CADINTERP_VERSION_NUMBER of the builder library actually linked. Thread-safe. */
+CADINTERP_API unsigned cadinterp_builder_version_number(void);
+
+/* ---- Writing a sample (called by the host from its callbacks) ----------------------------
+ * Common to every cadinterp_sample_* function:
+ * - Call it only from a callback that received `sample`, on that callback's thread, before the
+ *   callback returns (one thread per sample; different samples may be written concurrently).
+ * - Arrays and strings are copied before the call returns: the host keeps ownership of its
+ *   memory and may free or reuse it at once.
+ * - A failure leaves the sample as it was and records no message (the status says what was
+ *   wrong): CADINTERP_E_INVALID_ARGUMENT as listed per function, always including a NULL
+ *   `sample`; CADINTERP_E_OUT_OF_MEMORY; CADINTERP_E_INTERNAL for a bug. A callback that passes
+ *   a failure on as its own return value makes its x infeasible.
+ * - Counts are size_t and must be below 2^31. */
 
 /**
  * Sets the sample's tet mesh and boundary triangles (regenerate). Copies the arrays.
@@ -62,25 +97,29 @@ typedef struct cadinterp_builder cadinterp_builder;
  * @param[in] tets            #T by 4 vertex indices, positive orientation (det > 0)
  * @param[in] triangles       #F by 3 vertex indices, counter-clockwise seen from outside
  * @param[in] triangle_tags   #F face tags (the B-rep face each triangle lies on)
- * @return CADINTERP_E_INVALID_ARGUMENT (NULL arrays with nonzero counts, a mesh already set,
- *         counts above 2^31), CADINTERP_E_OUT_OF_MEMORY. Mesh validity is checked after the
- *         callback returns, not here.
- * Thread-safety: one thread per sample (the builder calls a host callback with one sample).
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL array with a nonzero count, a
+ *         count of 2^31 or more, or a mesh already set on the sample (once per sample, in
+ *         regenerate: references and simulate receive it set). Mesh validity is checked after
+ *         the callback returns, not here.
  */
 CADINTERP_API cadinterp_status
 cadinterp_sample_set_mesh(cadinterp_sample* sample, const double* vertices, size_t vertex_count,
                           const uint32_t* tets, size_t tet_count, const uint32_t* triangles,
                           const int32_t* triangle_tags, size_t triangle_count);
 
-/** Adds a control point (references). @param[in] id id_length int64 (see the ID scheme above;
- * 1 <= id_length <= 64); @param[in] position 3 doubles. An ID given twice in one sample is
- * CADINTERP_E_INVALID_ARGUMENT. */
+/** Adds a control point (references). @param[in] id id_length int64 (see the ID scheme above);
+ * @param[in] position 3 doubles (checked finite after the callback returns). Copies both.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL id or position, id_length
+ * outside 1..64, or an ID already added to this sample. */
 CADINTERP_API cadinterp_status cadinterp_sample_add_point(cadinterp_sample* sample,
                                                           const int64_t* id, size_t id_length,
                                                           const double* position);
 
-/** Adds a path on the boundary between control points a and b (references).
- * @param[in] polyline #P by 3 positions from a to b, P >= 2. */
+/** Adds a path on the boundary between control points a and b (references). Copies the IDs and
+ * the polyline. @param[in] id_a, id_b as cadinterp_sample_add_point's id (1..64 values each);
+ * @param[in] polyline #P by 3 positions from a to b, P = point_count >= 2.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL or out-of-range ID or polyline,
+ * or point_count < 2 or >= 2^31. */
 CADINTERP_API cadinterp_status cadinterp_sample_add_path(cadinterp_sample* sample,
                                                          const int64_t* id_a, size_t id_a_length,
                                                          const int64_t* id_b, size_t id_b_length,
@@ -88,16 +127,23 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_path(cadinterp_sample* sampl
                                                          size_t point_count);
 
 /** Adds a boundary-condition region (references): a name unique in the sample, a kind
- * ("fixed", "force", "heat", ...; may be NULL), and the face tags it covers. */
+ * ("fixed", "force", "heat", ...; NULL means ""), and the #R face tags it covers (face_tags may
+ * be NULL when face_tag_count is 0). Copies all three.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL or empty name, a name already
+ * used in this sample, or NULL face_tags with a nonzero count. */
 CADINTERP_API cadinterp_status cadinterp_sample_add_region(cadinterp_sample* sample,
                                                            const char* name, const char* kind,
                                                            const int32_t* face_tags,
                                                            size_t face_tag_count);
 
-/** Adds a named field (simulate). @param[in] values #V (CADINTERP_PER_VERTEX) or #T
- * (CADINTERP_PER_TET) by components doubles, 1 <= components <= 16; `count` is #V or #T. Every
+/** Adds a named field (simulate). Copies the name and values. @param[in] values #V
+ * (CADINTERP_PER_VERTEX) or #T (CADINTERP_PER_TET) by components doubles; `count` is #V or #T
+ * (checked against the mesh, and the values checked finite, after the callback returns). Every
  * feasible sample of a build must give the same fields (names, locations, components) in the
- * same order; a sample that differs is infeasible. */
+ * same order; a sample that differs is infeasible.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL or empty name, a name already
+ * added to this sample, components outside 1..16, an unknown location, or NULL values with a
+ * nonzero count. */
 CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* sample,
                                                           const char* name,
                                                           cadinterp_field_location location,
@@ -108,21 +154,29 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* samp
  * Sets the unit of the field called `name`, added before by cadinterp_sample_add_field: free
  * text such as "MPa", "mm", "K" (UTF-8, copied; "" clears it). The asset stores it per field
  * (format 1.1) and the runtime returns it from cadinterp_field_unit. A separate call so that
- * cadinterp_sample_add_field and the hosts calling it stay as they are; the build takes the
- * units of the sample it takes the field list from.
+ * cadinterp_sample_add_field keeps its signature; the build takes the units of the sample it
+ * takes the field list from.
  * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument or an empty name;
  * CADINTERP_E_NOT_FOUND when the sample has no field of that name.
  */
 CADINTERP_API cadinterp_status cadinterp_sample_set_field_unit(cadinterp_sample* sample,
                                                                const char* name, const char* unit);
 
-/** Sets the message recorded with an infeasible sample (why the host failed). Copies it. */
+/** Sets the message recorded with an infeasible sample (why the host failed), replacing any
+ * earlier one; it is used when the callback then returns a status other than CADINTERP_OK.
+ * Copies it. @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL message. */
 CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* sample,
                                                             const char* message);
 
-/* ---- The host ---------------------------------------------------------------------------- */
+/* ---- The host ----------------------------------------------------------------------------
+ * The callbacks run on the builder's worker threads, not necessarily the thread that called
+ * cadinterp_builder_run, and concurrently for different x only when the host sets thread_safe.
+ * `x` (K doubles) and `out` are valid only during the call. A return other than CADINTERP_OK,
+ * a C++ exception (caught by the builder) or an invalid result makes x infeasible; the build
+ * goes on. */
 
-/** Regenerates the model at x (K doubles) and writes its mesh into `out`. */
+/** Regenerates the model at x (K doubles) and writes its mesh into `out`
+ * (cadinterp_sample_set_mesh, exactly once). */
 typedef cadinterp_status (*cadinterp_regenerate_fn)(void* user, const double* x,
                                                     cadinterp_sample* out);
 /** Writes control points, paths and boundary-condition regions of the model at x into `out`
@@ -130,7 +184,8 @@ typedef cadinterp_status (*cadinterp_regenerate_fn)(void* user, const double* x,
 typedef cadinterp_status (*cadinterp_references_fn)(void* user, const double* x,
                                                     cadinterp_sample* out);
 
-/** The mesh regenerate wrote, as simulate sees it (pointers valid during the call). */
+/** The mesh simulate runs on (builder-owned; pointers valid during the call only): the one
+ * regenerate wrote at x, or with simulate_mapped another sample's mesh mapped to x's shape. */
 typedef struct cadinterp_host_mesh {
   size_t vertex_count;
   const double* vertices; /**< #V by 3 */
@@ -141,29 +196,36 @@ typedef struct cadinterp_host_mesh {
   const int32_t* triangle_tags; /**< #F */
 } cadinterp_host_mesh;
 
-/** Simulates on the regenerated mesh and adds fields to `out` (optional callback). */
+/** Simulates on `mesh` and adds fields to `out` (optional callback; `out` carries that mesh). */
 typedef cadinterp_status (*cadinterp_simulate_fn)(void* user, const double* x,
                                                   const cadinterp_host_mesh* mesh,
                                                   cadinterp_sample* out);
 
+/** One design parameter (one axis of the parameter box). Copied by cadinterp_builder_create. */
 typedef struct cadinterp_parameter_desc {
   const char* name;    /**< non-empty */
   const char* unit;    /**< may be NULL */
   double lower, upper; /**< finite, lower < upper */
 } cadinterp_parameter_desc;
 
+/** The host CAD kernel as the builder sees it. cadinterp_builder_create copies the struct, its
+ * strings and its parameter array, so they need to live only during that call; `user` and the
+ * callbacks are kept as pointers and must stay valid until cadinterp_builder_destroy. */
 typedef struct cadinterp_host {
-  size_t struct_size; /**< sizeof(cadinterp_host): lets the struct grow */
-  const char* name;   /**< recorded in the asset's provenance */
-  /** Identity of the model and its settings (e.g. "wrench v3, mesh size 2 mm"). A sample store
-   * written with another name, identity or parameter box is refused, never reused. */
+  /** sizeof(cadinterp_host): lets the struct grow. create refuses a smaller value, since every
+   * member up to thread_safe is read. */
+  size_t struct_size;
+  const char* name; /**< non-empty; recorded in the asset's provenance */
+  /** Identity of the model and its settings (e.g. "wrench v3, mesh size 2 mm"; NULL means "").
+   * A sample store written with another name, identity or parameter box is refused, never
+   * reused. */
   const char* identity;
-  int parameter_count; /**< K, 1..8 */
-  const cadinterp_parameter_desc* parameters;
-  void* user; /**< passed to every callback */
-  cadinterp_regenerate_fn regenerate;
-  cadinterp_references_fn references; /**< may be NULL (no references) */
-  cadinterp_simulate_fn simulate;     /**< may be NULL (no fields) */
+  int parameter_count;                        /**< K, 1..8 */
+  const cadinterp_parameter_desc* parameters; /**< K descriptions */
+  void* user;                                 /**< passed to every callback */
+  cadinterp_regenerate_fn regenerate;         /**< required */
+  cadinterp_references_fn references;         /**< may be NULL (no references) */
+  cadinterp_simulate_fn simulate;             /**< may be NULL (no fields) */
   /** Nonzero when the callbacks may run concurrently for different x (each with its own
    * sample); zero makes the builder call the host from one thread at a time. */
   int thread_safe;
@@ -175,7 +237,8 @@ typedef struct cadinterp_host {
  * `model` (NULL or "": the library's default model) configured by `options` ("key=value" pairs
  * separated by ',' ; NULL or "": defaults), or NULL with *error set to a message in static or
  * library-owned storage. The returned host and its strings stay valid until the library is
- * unloaded; calling the entry again may return a new host.
+ * unloaded; calling the entry again may return a new host. The library states whether the entry
+ * may be called from several threads at once; the cadinterp tools call it from one.
  */
 typedef const cadinterp_host* (*cadinterp_host_entry_fn)(const char* model, const char* options,
                                                          const char** error);
@@ -183,6 +246,7 @@ typedef const cadinterp_host* (*cadinterp_host_entry_fn)(const char* model, cons
 
 /* ---- Options, progress, report ------------------------------------------------------------ */
 
+/** What the progress callback is told (builder-owned; valid during the callback only). */
 typedef struct cadinterp_progress {
   int samples_done;   /**< host evaluations finished (or read from the store) so far */
   int samples_queued; /**< known to be needed next; the total grows as the tree refines */
@@ -193,27 +257,33 @@ typedef struct cadinterp_progress {
 
 /** Progress callback: return nonzero to cancel the build (cadinterp_builder_run then returns
  * CADINTERP_E_CANCELLED; the samples finished so far stay in the store). Called from the thread
- * that runs cadinterp_builder_run. */
+ * that runs cadinterp_builder_run, after each finished sample and each refinement wave; it must
+ * not call cadinterp_builder_* functions on the builder that is running. */
 typedef int (*cadinterp_progress_fn)(void* user, const cadinterp_progress* progress);
 
+/** Options of a build. Fill it with cadinterp_build_options_init (the defaults), then change
+ * members. cadinterp_builder_create copies it (and store_path); progress_user is kept as a
+ * pointer. A caller built against an older, shorter struct sets struct_size to its own size and
+ * gets the defaults for the members it does not know. */
 typedef struct cadinterp_build_options {
-  size_t struct_size; /**< sizeof(cadinterp_build_options) */
-  int degree;         /**< 1 (linear, default) or 3 (cubic) */
+  /** sizeof(cadinterp_build_options); at least offsetof(progress_user) + sizeof(void*). */
+  size_t struct_size;
+  int degree; /**< 1 (linear, default) or 3 (cubic) */
   /** Geometric error target: symmetric Hausdorff distance between the interpolated and the true
-   * boundary surface, relative to the bounding-box diagonal (default 1e-3). */
+   * boundary surface, relative to the bounding-box diagonal (default 1e-3; > 0). */
   double geometry_tolerance;
   /** Field error target: max |interpolated - true| relative to the field's range of values in
-   * the true sample (default 1e-2). */
+   * the true sample (default 1e-2; > 0). */
   double field_tolerance;
-  int max_samples;        /**< no refinement starts beyond this many samples (default 256) */
-  int max_depth;          /**< splits per direction (default 8) */
+  int max_samples;        /**< no refinement starts beyond this many samples (default 256; >= 2) */
+  int max_depth;          /**< splits per direction (default 8; 1..29) */
   int threads;            /**< host evaluations in parallel; 0: hardware concurrency (default 0) */
   const char* store_path; /**< sample store file; NULL: keep samples in memory only */
   /** Largest absolute error the codec may add to positions, in model units; 0 (default) is
-   * lossless. */
+   * lossless; >= 0. */
   double position_max_abs_error;
   cadinterp_progress_fn progress; /**< may be NULL */
-  void* progress_user;
+  void* progress_user;            /**< passed to progress; must stay valid during runs */
   /** Fields of a sample mapped onto another sample's mesh (paper §6; every term of an element
    * whose mesh differs from the element's canonical one). 0 (default): the sample's own fields,
    * carried over by barycentric interpolation at the mapped points. Nonzero: the host's
@@ -223,10 +293,10 @@ typedef struct cadinterp_build_options {
    * difference between two meshes' solutions. One more simulate per mapped term; where it fails
    * the carried fields stay (counted in cadinterp_build_stages). Needs a host with simulate. */
   int simulate_mapped;
-  /** Rounds of canonical refinement (default 3; 0: none). A term mapped onto its element's
-   * canonical mesh keeps that mesh's combinatorics, so where the term's shape bends under a
-   * canonical triangle (a hole's round wall where the canonical sample has a flat face) the
-   * mapped triangle is a chord of it. Where some term's mapped boundary departs from its own
+  /** Rounds of canonical refinement (default 3; 0: none; at most 20). A term mapped onto its
+   * element's canonical mesh keeps that mesh's combinatorics, so where the term's shape bends
+   * under a canonical triangle (a hole's round wall where the canonical sample has a flat face)
+   * the mapped triangle is a chord of it. Where some term's mapped boundary departs from its own
    * boundary by more than 0.7 x geometry_tolerance, the element's canonical mesh gets those
    * boundary edges bisected (every tet around one split in two, no interior vertex added) and
    * every term is mapped again onto it, for at most this many rounds, each kept only if every
@@ -235,10 +305,14 @@ typedef struct cadinterp_build_options {
   int canonical_refinement;
 } cadinterp_build_options;
 
-/** Fills `options` with the defaults above (struct_size included). */
+/** Fills `options` with the defaults above (struct_size included; other bytes zero). NULL is a
+ * no-op. Thread-safe. */
 CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* options);
 
+/** Counts and times of a run (see cadinterp_builder_report). Grows by addition: the caller sets
+ * struct_size. */
 typedef struct cadinterp_build_report {
+  size_t struct_size;    /**< sizeof(cadinterp_build_report), set by the caller */
   int samples;           /**< basis samples of the asset */
   int host_evaluations;  /**< distinct points evaluated by the host in this run */
   int store_hits;        /**< points read from the sample store instead */
@@ -253,21 +327,34 @@ typedef struct cadinterp_build_report {
   uint64_t asset_bytes;
 } cadinterp_build_report;
 
-/* ---- Building ------------------------------------------------------------------------------ */
+/* ---- Building ------------------------------------------------------------------------------
+ * A builder is used by one thread at a time: no two calls on the same builder may overlap,
+ * and none may be made from its progress callback. Different builders are independent (but two
+ * builds sharing one store_path at once are not supported). */
 
 /**
- * Creates a builder for `host` with `options` (NULL: defaults). Both are copied (the host's
- * strings and parameter array too; `user` is kept as a pointer and must outlive the builder).
- * @return CADINTERP_E_INVALID_ARGUMENT with a message for an inconsistent host or options;
- *         *out is NULL then and the message is available from cadinterp_builder_open_error().
- * Thread-safety: safe; the builder is used by one thread at a time.
+ * Creates a builder for `host` with `options` (NULL: defaults). Both are copied (see
+ * cadinterp_host and cadinterp_build_options for what must outlive the builder). The caller
+ * owns the new builder and frees it with cadinterp_builder_destroy.
+ * @param[out] out the new builder; set to NULL on every failure (when out is not NULL).
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL host or out, or an inconsistent
+ *         host or options (a struct_size too small, a value outside its documented range,
+ *         simulate_mapped without simulate); CADINTERP_E_OUT_OF_MEMORY; CADINTERP_E_INTERNAL.
+ *         The message of a failure is available from cadinterp_builder_create_error().
+ * Thread-safety: safe to call from any number of threads at once.
  */
 CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
                                                         const cadinterp_build_options* options,
                                                         cadinterp_builder** out);
-/** Message of the calling thread's last failed cadinterp_builder_create (never NULL). */
+/** Message of the calling thread's last cadinterp_builder_create: why it failed, or "" after a
+ * success (never NULL). Thread-local storage, valid until that thread's next create. */
+CADINTERP_API const char* cadinterp_builder_create_error(void);
+/** Deprecated name of cadinterp_builder_create_error (a create, not an open); same result. Kept
+ * exported for one release, then removed. */
+CADINTERP_DEPRECATED("use cadinterp_builder_create_error")
 CADINTERP_API const char* cadinterp_builder_open_error(void);
-/** Destroys a builder; NULL is a no-op. */
+/** Destroys a builder and every string it returned (messages, reasons); NULL is a no-op. The
+ * host's `user` is not touched. Not concurrently with another call on the same builder. */
 CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* builder);
 
 /**
@@ -275,20 +362,31 @@ CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* builder);
  * renamed, so a killed build never leaves a partial asset under that name). The temporary file
  * is created and removed once before the build starts, so an output that cannot be written (a
  * missing directory, no permission) fails at once with CADINTERP_E_IO, before any host call.
- * @return CADINTERP_OK; CADINTERP_E_CANCELLED; CADINTERP_E_IO (store or output);
- *         CADINTERP_E_STORE_MISMATCH (the store belongs to another host, identity or box);
- *         CADINTERP_E_INFEASIBLE (no element could be built: the host failed everywhere, or
- *         no element's samples could be mapped onto its canonical mesh); CADINTERP_E_OUT_OF_MEMORY.
+ * May be called again on the same builder: each run starts a fresh report and, with a
+ * store_path, reads the samples already stored instead of calling the host again. Blocks until
+ * the build ends; host callbacks run on worker threads, the progress callback on this thread.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT (a NULL builder, a NULL or empty path, or
+ *         asset content the writer refuses); CADINTERP_E_CANCELLED; CADINTERP_E_IO (store or
+ *         output); CADINTERP_E_STORE_MISMATCH (the store belongs to another host, identity or
+ *         box); CADINTERP_E_INFEASIBLE (no element could be built: the host failed everywhere,
+ *         or no element's samples could be mapped onto its canonical mesh);
+ *         CADINTERP_E_OUT_OF_MEMORY; CADINTERP_E_INTERNAL. But for a NULL builder, the message
+ *         is available from cadinterp_builder_error, and the report, stages and reasons
+ *         describe what the run did before it ended, whatever the outcome.
  */
 CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* builder,
                                                      const char* output_path);
 /** The report of the last run, finished or failed (zeros before the first). After a failure it
  * counts what was done before it: host_evaluations, store_hits, infeasible_points; `samples` is
- * the points requested so far when the refinement did not finish, `elements` the leaves so far. */
+ * the points requested so far when the refinement did not finish, `elements` the leaves so far.
+ * Fills at most out->struct_size bytes (grow-by-addition) and sets out->struct_size to the bytes
+ * filled.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT (out untouched, no message) for a NULL
+ *         builder or out, or out->struct_size < sizeof(size_t). */
 CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* builder,
                                                         cadinterp_build_report* out);
 
-/** What cadinterp_build_report cannot carry (it has no size member, so it cannot grow). */
+/** Stage times and counts of a run, beside cadinterp_build_report. */
 typedef struct cadinterp_build_stages {
   size_t struct_size;     /**< sizeof(cadinterp_build_stages), set by the caller */
   int points_requested;   /**< distinct sample points the refinement asked for */
@@ -308,8 +406,8 @@ typedef struct cadinterp_build_stages {
    * refined (canonical_refinement: simulated again on the refined mesh). */
   int mapped_simulated;
   int mapped_simulate_failures;
-  /** The host's message for the first of those failures ("" if none); valid until the next run
-   * or destroy. */
+  /** The host's message for the first of those failures ("" if none; never NULL); builder-owned,
+   * valid until the next run or destroy. */
   const char* first_mapped_simulate_failure;
   /** canonical_refinement: elements whose canonical mesh was refined, and the vertices added to
    * their canonical meshes in all. */
@@ -317,18 +415,25 @@ typedef struct cadinterp_build_stages {
   int refined_vertices;
 } cadinterp_build_stages;
 
-/** Stage times and counts of the last run, finished or failed. Fills at most
- * out->struct_size bytes (grow-by-addition). */
+/** Stage times and counts of the last run, finished or failed (zeros before the first). Fills
+ * at most out->struct_size bytes (grow-by-addition) and sets out->struct_size to the bytes
+ * filled.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT (out untouched, no message) for a NULL
+ *         builder or out, or out->struct_size < sizeof(size_t). */
 CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder* builder,
                                                         cadinterp_build_stages* out);
 
-/** The last run's index-th distinct reason for infeasible points (first met first, at most 8):
- * the host's message (valid until the next run or destroy) and how many points gave it.
- * @return CADINTERP_E_INVALID_ARGUMENT past the last one. */
+/** The last run's index-th distinct reason for infeasible points (first met first, at most 8;
+ * their number is cadinterp_build_stages.infeasible_reasons): the host's message (builder-owned,
+ * valid until the next run or destroy) and how many points gave it. Either output may be NULL.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT (outputs untouched, no message) for a NULL
+ *         builder or an index outside 0..infeasible_reasons-1. */
 CADINTERP_API cadinterp_status cadinterp_builder_infeasible_reason(const cadinterp_builder* builder,
                                                                    int index, const char** message,
                                                                    int* count);
-/** Message of the builder's last failed call ("" if none); valid until the next call. */
+/** Message of the builder's last run: why it failed, or "" after a success or before the first
+ * run; "builder is NULL" for NULL (never NULL). Builder-owned, valid until the next run or
+ * destroy. */
 CADINTERP_API const char* cadinterp_builder_error(const cadinterp_builder* builder);
 
 #ifdef __cplusplus

@@ -7,6 +7,8 @@
 #include <new>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "builder/build.h"
 #include "mesh/host_call.h"
@@ -81,11 +83,15 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_mesh(cadinterp_sample* s, co
     if (!s || s->mesh_set || (nv && !V) || (nt && !T) || (nf && (!F || !tags)) || nv >= kMaxCount ||
         nt >= kMaxCount || nf >= kMaxCount)
       return CADINTERP_E_INVALID_ARGUMENT;
+    // Copied aside first: running out of memory halfway leaves the sample as it was.
+    std::vector<double> vertices(V, V + 3 * nv);
+    std::vector<uint32_t> tets(T, T + 4 * nt), triangles(F, F + 3 * nf);
+    std::vector<int32_t> triangle_tags(tags, tags + nf);
     Sample& x = s->sample;
-    x.vertices.assign(V, V + 3 * nv);
-    x.tets.assign(T, T + 4 * nt);
-    x.triangles.assign(F, F + 3 * nf);
-    x.triangle_tags.assign(tags, tags + nf);
+    x.vertices = std::move(vertices);
+    x.tets = std::move(tets);
+    x.triangles = std::move(triangles);
+    x.triangle_tags = std::move(triangle_tags);
     s->mesh_set = true;
     return CADINTERP_OK;
   });
@@ -176,6 +182,17 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
   });
 }
 
+CADINTERP_API const char* cadinterp_builder_version(void) {
+#define CADINTERP_BUILDER_STR2(x) #x
+#define CADINTERP_BUILDER_STR(x) CADINTERP_BUILDER_STR2(x)
+  return CADINTERP_BUILDER_STR(CADINTERP_VERSION_MAJOR) "." CADINTERP_BUILDER_STR(
+      CADINTERP_VERSION_MINOR) "." CADINTERP_BUILDER_STR(CADINTERP_VERSION_PATCH);
+#undef CADINTERP_BUILDER_STR
+#undef CADINTERP_BUILDER_STR2
+}
+
+CADINTERP_API unsigned cadinterp_builder_version_number(void) { return CADINTERP_VERSION_NUMBER; }
+
 CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
   if (!o) return;
   std::memset(o, 0, sizeof *o);
@@ -191,6 +208,9 @@ CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
 CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
                                                         const cadinterp_build_options* options,
                                                         cadinterp_builder** out) {
+  // Every failure leaves *out NULL (the header's promise), so a caller that destroys it
+  // unconditionally never frees a stale pointer.
+  if (out) *out = nullptr;
   return guard(&t_create_error, [&] {
     if (!out) throw std::invalid_argument("out is NULL");
     if (!host) throw std::invalid_argument("host is NULL");
@@ -225,6 +245,12 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
     if (bo.max_depth < 1 || bo.max_depth > 29)
       throw std::invalid_argument("options: max_depth must be 1..29");
     if (bo.threads < 0) throw std::invalid_argument("options: threads must be >= 0");
+    // Checked again by the build; refused here so that create reports every inconsistent
+    // option, as its header says, before any run.
+    if (!(bo.position_max_abs_error >= 0))
+      throw std::invalid_argument("options: position_max_abs_error must be >= 0");
+    if (bo.simulate_mapped && !host->simulate)
+      throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
     b->progress = o.progress;
     b->progress_user = o.progress_user;
     if (b->progress) {
@@ -239,7 +265,11 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   });
 }
 
-CADINTERP_API const char* cadinterp_builder_open_error(void) { return t_create_error.c_str(); }
+CADINTERP_API const char* cadinterp_builder_create_error(void) { return t_create_error.c_str(); }
+
+CADINTERP_API const char* cadinterp_builder_open_error(void) {
+  return cadinterp_builder_create_error();
+}
 
 CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* b) { delete b; }
 
@@ -270,8 +300,10 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const
 
 CADINTERP_API cadinterp_status cadinterp_builder_report(const cadinterp_builder* b,
                                                         cadinterp_build_report* out) {
-  if (!b || !out) return CADINTERP_E_INVALID_ARGUMENT;
-  *out = b->report;
+  if (!b || !out || out->struct_size < sizeof(size_t)) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp_build_report r = b->report;
+  r.struct_size = std::min(out->struct_size, sizeof r);
+  std::memcpy(out, &r, r.struct_size);
   return CADINTERP_OK;
 }
 

@@ -38,11 +38,12 @@ struct WorkspaceDestroyer {
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path) {
   BuildOutcome r;
+  r.report.struct_size = sizeof r.report;
   r.stages.struct_size = sizeof r.stages;
   cadinterp_builder* b = nullptr;
   r.status = cadinterp_builder_create(&host, &options, &b);
   if (r.status != CADINTERP_OK) {
-    r.error = cadinterp_builder_open_error();
+    r.error = cadinterp_builder_create_error();
     return r;
   }
   r.status = cadinterp_builder_run(b, output_path.c_str());

@@ -41,10 +41,10 @@ struct AccuracyReport {
 /// Outcome of one build through the C ABI (create, run, report, destroy).
 struct BuildOutcome {
   cadinterp_status status = CADINTERP_E_INTERNAL;
-  cadinterp_build_report report{};
+  cadinterp_build_report report{};  ///< struct_size set; zeros when the builder was not created
   cadinterp_build_stages stages{};  ///< struct_size set; zeros when the builder was not created
                                     ///< (first_mapped_simulate_failure NULL: copied below)
-  std::string error;                ///< the builder's message (or cadinterp_builder_open_error's)
+  std::string error;                ///< the builder's message (or cadinterp_builder_create_error's)
   std::string first_mapped_simulate_failure;
 };
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,

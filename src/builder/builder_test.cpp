@@ -343,21 +343,35 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
 
 TEST(Build, RejectsBadArgumentsWithNamedErrors) {
   BoxHost h(2);
-  cadinterp_builder* b = nullptr;
+  // A failed create sets *out to NULL, whatever it held before.
+  int not_a_builder = 0;
+  cadinterp_builder* const stale = reinterpret_cast<cadinterp_builder*>(&not_a_builder);
+  cadinterp_builder* b = stale;
   cadinterp_build_options o = small_options();
   o.degree = 2;
   EXPECT_EQ(cadinterp_builder_create(&h.host, &o, &b), CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_NE(std::string(cadinterp_builder_open_error()).find("degree"), std::string::npos);
+  EXPECT_NE(std::string(cadinterp_builder_create_error()).find("degree"), std::string::npos);
+  // The deprecated name, kept for one release, gives the same message.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+  EXPECT_STREQ(cadinterp_builder_open_error(), cadinterp_builder_create_error());
+#pragma GCC diagnostic pop
   EXPECT_EQ(b, nullptr);
+  b = stale;
+  EXPECT_EQ(cadinterp_builder_create(nullptr, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(b, nullptr);
+  EXPECT_EQ(cadinterp_builder_create(&h.host, nullptr, nullptr), CADINTERP_E_INVALID_ARGUMENT);
   cadinterp_host bad = h.host;
   bad.regenerate = nullptr;
+  b = stale;
   EXPECT_EQ(cadinterp_builder_create(&bad, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(b, nullptr);
   std::vector<cadinterp_parameter_desc> p = h.params;
   p[1].upper = p[1].lower;
   bad = h.host;
   bad.parameters = p.data();
   EXPECT_EQ(cadinterp_builder_create(&bad, nullptr, &b), CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_NE(std::string(cadinterp_builder_open_error()).find("twist"), std::string::npos);
+  EXPECT_NE(std::string(cadinterp_builder_create_error()).find("twist"), std::string::npos);
   ASSERT_EQ(cadinterp_builder_create(&h.host, nullptr, &b), CADINTERP_OK);
   EXPECT_EQ(cadinterp_builder_run(b, nullptr), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(cadinterp_builder_run(b, "/nonexistent-dir/x.cadi"), CADINTERP_E_IO)
@@ -367,7 +381,11 @@ TEST(Build, RejectsBadArgumentsWithNamedErrors) {
             std::string::npos)
       << cadinterp_builder_error(b);
   cadinterp_build_report rep;
+  std::memset(&rep, 0, sizeof rep);
+  EXPECT_EQ(cadinterp_builder_report(b, &rep), CADINTERP_E_INVALID_ARGUMENT);  // no struct_size
+  rep.struct_size = sizeof rep;
   ASSERT_EQ(cadinterp_builder_report(b, &rep), CADINTERP_OK);
+  EXPECT_EQ(rep.struct_size, sizeof rep);
   EXPECT_EQ(rep.host_evaluations, 0);
   cadinterp_builder_destroy(b);
   cadinterp_builder_destroy(nullptr);
@@ -592,6 +610,7 @@ TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
         << cadinterp_builder_error(b);
     EXPECT_FALSE(std::filesystem::exists(path));
     cadinterp_build_report c{};
+    c.struct_size = sizeof c;
     ASSERT_EQ(cadinterp_builder_report(b, &c), CADINTERP_OK);
     EXPECT_GE(c.host_evaluations, 3);
     EXPECT_EQ(c.infeasible_points, c.host_evaluations);
@@ -622,6 +641,18 @@ TEST(BuildReport, SaysWhatAnAllInfeasibleBuildDidAndWhy) {
     EXPECT_EQ(small.points_requested, st.points_requested);
     unsigned char untouched;
     std::memcpy(&untouched, reinterpret_cast<const unsigned char*>(&small) + small.struct_size, 1);
+    EXPECT_EQ(untouched, 0xab);
+    // The same for the report: a shorter struct gets its own bytes and nothing past them.
+    cadinterp_build_report short_report;
+    std::memset(&short_report, 0xab, sizeof short_report);
+    short_report.struct_size = offsetof(cadinterp_build_report, infeasible_points);
+    ASSERT_EQ(cadinterp_builder_report(b, &short_report), CADINTERP_OK);
+    EXPECT_EQ(short_report.struct_size, offsetof(cadinterp_build_report, infeasible_points));
+    EXPECT_EQ(short_report.host_evaluations, c.host_evaluations);
+    EXPECT_EQ(short_report.store_hits, c.store_hits);
+    std::memcpy(&untouched,
+                reinterpret_cast<const unsigned char*>(&short_report) + short_report.struct_size,
+                1);
     EXPECT_EQ(untouched, 0xab);
     cadinterp_builder_destroy(b);
     std::filesystem::remove(h.log_path);

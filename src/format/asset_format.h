@@ -25,6 +25,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "cadinterp/cadinterp_status.h"
+
 namespace cadinterp::format {
 
 inline constexpr std::uint8_t kMagic[8] = {0x89, 'C', 'A', 'D', 'I', '\r', '\n', 0x1A};
@@ -34,7 +36,8 @@ inline constexpr std::uint16_t kFormatMinor = 1;
 inline constexpr std::size_t kHeaderSize = 48;
 
 /// Outcome of reading or writing an asset. The values equal the C ABI's cadinterp_status values
-/// (include/cadinterp/cadinterp.h); they are explicit and only ever appended.
+/// (include/cadinterp/cadinterp_status.h), which the runtime and the builder return by casting
+/// the number; the static_asserts below pin each one. Explicit and only ever appended.
 enum class Status : int {
   Ok = 0,
   InvalidArgument = 1,
@@ -52,6 +55,24 @@ enum class Status : int {
   Infeasible = 13,         ///< x lies in an element that depends on an infeasible sample
   Internal = 14,
 };
+
+// A code appended here must be appended to cadinterp_status.h with the same number.
+constexpr bool same_code(Status s, cadinterp_status c) { return static_cast<int>(s) == c; }
+static_assert(same_code(Status::Ok, CADINTERP_OK));
+static_assert(same_code(Status::InvalidArgument, CADINTERP_E_INVALID_ARGUMENT));
+static_assert(same_code(Status::OutOfMemory, CADINTERP_E_OUT_OF_MEMORY));
+static_assert(same_code(Status::Io, CADINTERP_E_IO));
+static_assert(same_code(Status::BadMagic, CADINTERP_E_BAD_MAGIC));
+static_assert(same_code(Status::UnsupportedVersion, CADINTERP_E_UNSUPPORTED_VERSION));
+static_assert(same_code(Status::Truncated, CADINTERP_E_TRUNCATED));
+static_assert(same_code(Status::CorruptIndex, CADINTERP_E_CORRUPT_INDEX));
+static_assert(same_code(Status::ChecksumMismatch, CADINTERP_E_CHECKSUM));
+static_assert(same_code(Status::OutOfRange, CADINTERP_E_OUT_OF_RANGE));
+static_assert(same_code(Status::LimitExceeded, CADINTERP_E_LIMIT));
+static_assert(same_code(Status::CorruptBlob, CADINTERP_E_CORRUPT_BLOB));
+static_assert(same_code(Status::OutsideDomain, CADINTERP_E_OUTSIDE_DOMAIN));
+static_assert(same_code(Status::Infeasible, CADINTERP_E_INFEASIBLE));
+static_assert(same_code(Status::Internal, CADINTERP_E_INTERNAL));
 
 /// Fixed English name of a status ("ok", "bad magic", ...).
 const char* status_name(Status s);

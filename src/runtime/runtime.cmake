@@ -10,7 +10,8 @@ target_include_directories(cadinterp PUBLIC ${PROJECT_SOURCE_DIR}/include)
 target_compile_definitions(cadinterp PRIVATE CADINTERP_BUILDING_LIBRARY)
 target_link_libraries(cadinterp PRIVATE cadinterp_format cadinterp_runtime_kernels cadinterp_warnings)
 # ABI version (soname) is kept apart from the library and format versions (CONVENTIONS.md).
-set_target_properties(cadinterp PROPERTIES VERSION ${PROJECT_VERSION} SOVERSION 0
+set_target_properties(cadinterp PROPERTIES VERSION ${PROJECT_VERSION}
+  SOVERSION ${CADINTERP_ABI_VERSION}
   LINK_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
 target_link_options(cadinterp PRIVATE -Wl,--version-script=${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
 

@@ -251,6 +251,7 @@ void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_b
 void report_outcome(cadinterp_status s, double wall, cadinterp_builder* builder, const BuildArgs& a,
                     const ProgressState& progress) {
   cadinterp_build_report r{};
+  r.struct_size = sizeof r;
   cadinterp_builder_report(builder, &r);
   if (s == CADINTERP_E_CANCELLED) {
     throw RuntimeFailure(describe(
@@ -325,7 +326,7 @@ int cmd_build(const std::vector<std::string>& args) {
   cadinterp_status s = cadinterp_builder_create(host.host, &o, &raw);
   if (s != CADINTERP_OK)
     throw RuntimeFailure("cannot create the builder: " +
-                         describe(s, cadinterp_builder_open_error()));
+                         describe(s, cadinterp_builder_create_error()));
   std::unique_ptr<cadinterp_builder, BuilderDestroyer> builder(raw);
 
   if (!a.quiet) {

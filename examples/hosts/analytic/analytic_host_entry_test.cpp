@@ -94,11 +94,12 @@ Build build(const cadinterp_host* host, const std::string& path) {
   cadinterp_builder* builder = nullptr;
   b.status = cadinterp_builder_create(host, &o, &builder);
   if (b.status != CADINTERP_OK) {
-    b.error = cadinterp_builder_open_error();
+    b.error = cadinterp_builder_create_error();
     return b;
   }
   b.status = cadinterp_builder_run(builder, path.c_str());
   b.error = cadinterp_builder_error(builder);
+  b.report.struct_size = sizeof b.report;
   cadinterp_builder_report(builder, &b.report);
   cadinterp_builder_destroy(builder);
   return b;
