@@ -38,8 +38,8 @@ struct BuildInfeasible : std::runtime_error {
 
 /// How a cubic element obtains the samples of its neighbours (paper §5.3, Fig. 15): mapped
 /// directly into its canonical mesh, or carried from the neighbour's canonical mesh through a
-/// sample on both elements (src/mapping/neighbour_transfer.h). See build.cpp for the measurement
-/// behind the default.
+/// sample on both elements (src/mapping/neighbour_transfer.h). element_stage.cpp says why the
+/// direct mapping is the default.
 enum class NeighbourTransfer {
   Fallback,  ///< direct; through a shared sample where the direct mapping fails (default)
   Always,    ///< through a shared sample wherever one exists, else direct
