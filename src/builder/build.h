@@ -37,8 +37,8 @@ struct BuildInfeasible : std::runtime_error {
 
 /// How a cubic element obtains the samples of its neighbours (paper §5.3, Fig. 15): mapped
 /// directly into its canonical mesh, or carried from the neighbour's canonical mesh through a
-/// sample on both elements (src/mapping/neighbour_transfer.h). See build.cpp for the measurement
-/// behind the default.
+/// sample on both elements (src/mapping/neighbour_transfer.h). element_stage.cpp says why the
+/// direct mapping is the default.
 enum class NeighbourTransfer {
   Fallback,  ///< direct; through a shared sample where the direct mapping fails (default)
   Always,    ///< through a shared sample wherever one exists, else direct
@@ -96,8 +96,8 @@ struct InfeasiblePoint {
 /// What a build did, filled on every exit path: on success (a copy is BuildResult::details) and
 /// when build() throws (cancelled, every point infeasible, store unreadable or unwritable, out of
 /// memory), so that a failed build still says how far it got and why. `counts` is the C report
-/// (cadinterp_build_report); that struct has no size member and cannot grow, so what it cannot
-/// carry (requests, reasons, stage times) is here.
+/// (cadinterp_build_report); what it does not carry (requests, reasons, stage times) is here, and
+/// cadinterp_build_stages hands the stage figures to C callers.
 struct BuildReport {
   /// The C report. After a failure: host_evaluations, store_hits and infeasible_points count what
   /// was done before it; `samples` is the basis' sample count if the refinement finished, else the

@@ -1,0 +1,390 @@
+// The element stage (element_stage.h): per element of the refined K-d tree, its canonical mesh,
+// its terms in that mesh's combinatorics (§6; the cubic neighbour transfer of §5.3), the
+// canonical refinement, and the element record the asset writer stores.
+#include "builder/element_stage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iterator>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include "builder/stage_report.h"
+#include "mesh/surface_distance.h"
+#include "mapping/canonical_refine.h"
+#include "mapping/interior_solve.h"
+#include "mapping/neighbour_transfer.h"
+
+namespace cadinterp::builder {
+
+namespace {
+
+std::vector<float> to_float(const std::vector<double>& v) {
+  return std::vector<float>(v.begin(), v.end());
+}
+
+// Per element: canonical mesh = the host at its centre (§4.2); each term's sample mapped into
+// it. An element whose centre failed or whose terms cannot be mapped is infeasible.
+//
+// The cubic neighbour transfer (§5.3, Fig. 15). A cubic element's terms include samples of
+// adjacent elements (Bbar(e)). Such a sample k can be mapped into the element's canonical mesh
+// directly (one §6 mapping, like every other term), or carried from the neighbour l''s
+// canonical mesh, where it is mapped anyway, through a sample s on both closed elements:
+// F: p_s^l -> p_s^{l'} computed once by barycentric coordinates (NeighbourBridge), so k still
+// goes through one homeomorphic mapping and errors do not accumulate. The bridge is not free of
+// error, though: p_s^l's vertices are interpolated in p_s^{l'}'s tets, a second discretization
+// on top of the §6 mapping, which the direct route does not add (`cadinterp-mapping-report
+// cubic` measures both routes against the host; src/mapping/README.md). So the direct
+// mapping is the rule and the bridge the fallback where it fails (e.g. a neighbour sample whose
+// layout cannot be paired with this element's canonical mesh while both pair with the shared
+// sample's). NeighbourTransfer::Always exists to measure the bridge. Which neighbour and shared
+// sample are used is a function of the tree alone: deterministic at any thread count.
+class ElementStage {
+ public:
+  ElementStage(const Host& host, const BuildOptions& opt, Executor& exec, MeshProblem& problem,
+               const core::AdaptiveRun& run, const core::CompiledBasis& cb,
+               const std::vector<int>& leaves, BuildReport& details, BuildResult& out,
+               std::vector<std::uint8_t>& element_ok)
+      : opt_(opt),
+        exec_(exec),
+        problem_(problem),
+        run_(run),
+        basis_(run.basis),
+        tree_(run.basis.tree()),
+        cb_(cb),
+        leaves_(leaves),
+        details_(details),
+        rep_(details.counts),
+        out_(out),
+        element_ok_(element_ok),
+        K_(host.dim()),
+        cubic_(opt.degree == core::Degree::Cubic) {}
+
+  const Sample* run() {
+    const Sample* field_source = nullptr;
+    for (std::size_t e = 0; e < leaves_.size(); ++e) build_element(e, field_source);
+    return field_source;
+  }
+
+ private:
+  void build_element(std::size_t e, const Sample*& field_source);
+  bool map_term(std::size_t e, int leaf, int crow, int k, std::unique_ptr<MappedSample>& bridged);
+  void refuse_term(std::size_t e, int row, int crow);
+  void write_element(format::ElementData& ed, const Sample& canon, int crow, const int* terms,
+                     int n, const std::vector<const MappedSample*>& carried);
+  bool refine(int crow, const int* terms, int n, Sample& refined,
+              std::vector<MappedSample>& remapped);
+  bool bridge(int leaf, int crow, int k, MappedSample& res);
+  int shared_sample(int leaf, int nb, int k) const;
+  bool carry(int k, int s, int nrow, int crow, MappedSample& res);
+  void compare_routes(int row, int crow, const MappedSample* viab);
+
+  const BuildOptions& opt_;
+  Executor& exec_;
+  MeshProblem& problem_;
+  const core::AdaptiveRun& run_;
+  const core::Basis& basis_;
+  const core::KdTree& tree_;
+  const core::CompiledBasis& cb_;
+  const std::vector<int>& leaves_;
+  BuildReport& details_;
+  cadinterp_build_report& rep_;  // details_.counts
+  BuildResult& out_;
+  std::vector<std::uint8_t>& element_ok_;
+  const int K_;
+  const bool cubic_;
+};
+
+// Element e (leaves_[e]): its terms, the canonical refinement where they depart from their own
+// boundaries, and its record (appended to the content, refused or not).
+void ElementStage::build_element(std::size_t e, const Sample*& field_source) {
+  format::ElementData ed;
+  const int leaf = leaves_[e];
+  const double err = run_.leaf_error[static_cast<std::size_t>(leaf)];
+  ed.error_estimate = std::isfinite(err) ? err * opt_.geometry_tolerance : -1.0;
+  const int crow = run_.centre_row[static_cast<std::size_t>(leaf)];
+  int n = 0;
+  const int* terms = cb_.element_samples(static_cast<int>(e), &n);
+  const bool samples_feasible =
+      cb_.element_feasible(static_cast<int>(e)) && crow >= 0 && problem_.sample(crow).feasible;
+  bool ok = samples_feasible;
+  // Per term: nullptr where the term's view (direct mapping or identity) is used, else its
+  // sample carried from a neighbour element through a shared sample (§5.3).
+  std::vector<std::unique_ptr<MappedSample>> bridged(static_cast<std::size_t>(n));
+  for (int t = 0; ok && t < n; ++t)
+    ok = map_term(e, leaf, crow, terms[t], bridged[static_cast<std::size_t>(t)]);
+  Sample refined;
+  std::vector<MappedSample> remapped;
+  bool use_refined = false;
+  // Elements with a term carried by the cubic neighbour transfer keep their canonical mesh (the
+  // bridge is defined on the canonical sample's own mesh).
+  if (ok && opt_.canonical_refinement > 0 &&
+      std::none_of(bridged.begin(), bridged.end(), [](const auto& b) { return b != nullptr; }))
+    use_refined = refine(crow, terms, n, refined, remapped);
+  if (ok) {
+    const Sample& canon = use_refined ? refined : problem_.sample(crow);
+    if (!field_source) field_source = &problem_.sample(crow);
+    std::vector<const MappedSample*> carried(static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t)
+      carried[static_cast<std::size_t>(t)] = use_refined
+                                                 ? &remapped[static_cast<std::size_t>(t)]
+                                                 : bridged[static_cast<std::size_t>(t)].get();
+    write_element(ed, canon, crow, terms, n, carried);
+    rep_.stored_meshes += n;
+    if (std::isfinite(err)) rep_.max_error = std::max(rep_.max_error, err);
+  } else {
+    element_ok_[e] = 0;
+    ++rep_.infeasible_elements;
+    if (samples_feasible) ++details_.unmapped_elements;
+  }
+  out_.content.elements.push_back(std::move(ed));
+}
+
+// Term sample k of element e (leaf `leaf`, canonical row crow): true when its view in the
+// canonical mesh exists, or when `bridged` holds it carried from a neighbour (§5.3: a cubic
+// term outside the element, by opt_.neighbour_transfer). False, the reason recorded, otherwise.
+bool ElementStage::map_term(std::size_t e, int leaf, int crow, int k,
+                            std::unique_ptr<MappedSample>& bridged) {
+  const int row = run_.sample_row[static_cast<std::size_t>(k)];
+  bool direct = false;
+  bool outside = false;
+  outside = cubic_ && !core::box_contains(tree_.node(leaf).box, basis_.sample(k), K_);
+  if (outside) ++out_.neighbour.neighbour_terms;
+  if (outside &&
+      (opt_.neighbour_transfer == NeighbourTransfer::Always || opt_.measure_neighbour_transfer)) {
+    auto b = std::make_unique<MappedSample>();
+    if (bridge(leaf, crow, k, *b)) bridged = std::move(b);
+  }
+  if (opt_.measure_neighbour_transfer && outside) compare_routes(row, crow, bridged.get());
+  if (opt_.neighbour_transfer != NeighbourTransfer::Always) bridged.reset();
+  MeshProblem::View m;
+  if (!bridged) direct = problem_.view(row, crow, m);
+  if (!direct && !bridged && outside) {
+    ++out_.neighbour.direct_failed;
+    if (opt_.neighbour_transfer == NeighbourTransfer::Fallback) {
+      auto b = std::make_unique<MappedSample>();
+      if (bridge(leaf, crow, k, *b)) bridged = std::move(b);
+    }
+  }
+  if (bridged) {
+    ++out_.neighbour.bridged;
+  } else if (!direct) {
+    refuse_term(e, row, crow);
+    return false;
+  }
+  return true;
+}
+
+// Records why element e is refused: term row `row` cannot be mapped into row crow's mesh.
+void ElementStage::refuse_term(std::size_t e, int row, int crow) {
+  const std::string& why = problem_.why(row, crow);
+  // The recorded point is the element's centre; the message names the term's own sample
+  // as well, so that the failing pair can be mapped again on its own.
+  std::string term = "element " + std::to_string(e) + ", term sample at (";
+  for (std::size_t d = 0; d < problem_.point(row).size(); ++d) {
+    char v[32];
+    std::snprintf(v, sizeof v, "%s%.6g", d ? ", " : "", problem_.point(row)[d]);
+    term += v;
+  }
+  out_.infeasible.push_back({problem_.point(crow), term + "): " + why});
+  count_reason(details_.element_reasons, details_.other_infeasible_elements, why, {});
+}
+
+// The element record: its canonical mesh `canon` and per term the positions (and fields) in
+// it, from carried[t] where the term is not row crow's view of its own sample.
+void ElementStage::write_element(format::ElementData& ed, const Sample& canon, int crow,
+                                 const int* terms, int n,
+                                 const std::vector<const MappedSample*>& carried) {
+  const std::size_t nv3 = canon.vertices.size();
+  ed.vertex_count = static_cast<std::uint32_t>(canon.vertex_count());
+  ed.tets = canon.tets;
+  ed.triangles = canon.triangles;
+  ed.triangle_tags = canon.triangle_tags;
+  ed.canonical = to_float(canon.vertices);
+  MeshProblem::View m;
+  // One term at a time: a view stays valid only until the next view() call.
+  for (int t = 0; t < n; ++t) {
+    const MappedSample* b = carried[static_cast<std::size_t>(t)];
+    if (b) {
+      m.vertices = b->vertices.data();
+      m.fields.clear();
+      for (const auto& f : b->fields) m.fields.push_back(f.data());
+      m.hold.reset();
+    } else {
+      problem_.view(run_.sample_row[static_cast<std::size_t>(terms[t])], crow, m);
+    }
+    ed.positions.emplace_back(m.vertices, m.vertices + nv3);
+    if (!canon.fields.empty()) {
+      std::vector<float> f;
+      for (std::size_t k = 0; k < canon.fields.size(); ++k)
+        f.insert(f.end(), m.fields[k], m.fields[k] + canon.fields[k].values.size());
+      ed.fields.push_back(std::move(f));
+    }
+  }
+}
+
+// Canonical refinement (§6; mapping/canonical_refine.h): where a mapped term's boundary departs
+// from its own by more than 0.7 x the geometry tolerance (a bend of the term's shape under a
+// canonical triangle), the element's canonical mesh (row crow) is refined there and every term
+// mapped again onto it. The threshold lies below the tolerance so that the refined pairs meet
+// it. True when `refined` replaces the canonical mesh and remapped[t] term t's view in it.
+bool ElementStage::refine(int crow, const int* terms, int n, Sample& refined,
+                          std::vector<MappedSample>& remapped) {
+  const Sample& canon = problem_.sample(crow);
+  const double tolerance = 0.7 * opt_.geometry_tolerance;
+  // The terms as mapped already (every view exists: map_term mapped them), from which
+  // refinement starts.
+  std::vector<const Sample*> sources;
+  bool departs = false;
+  MeshProblem::View m;
+  for (int t = 0; t < n; ++t) {
+    const int row = run_.sample_row[static_cast<std::size_t>(terms[t])];
+    sources.push_back(&problem_.sample(row));
+    problem_.view(row, crow, m);
+    MappedSample& r = remapped.emplace_back();
+    r.vertices.assign(m.vertices, m.vertices + canon.vertices.size());
+    for (std::size_t k = 0; k < canon.fields.size(); ++k)
+      r.fields.emplace_back(m.fields[k], m.fields[k] + canon.fields[k].values.size());
+    departs = departs || (!problem_.same_class(row, crow) &&
+                          mapping::mapped_departure(problem_.sample(row), canon, r.vertices,
+                                                    tolerance, nullptr) > tolerance);
+  }
+  if (!departs) return false;
+  mapping::RefineOptions ro;
+  ro.tolerance = tolerance;
+  ro.rounds = opt_.canonical_refinement;
+  ro.threads = std::max(1, exec_.concurrency());
+  mapping::RefineStats rs;
+  std::string why;
+  if (!mapping::refine_canonical(sources, canon, problem_.mapper(), refined, remapped, why, &rs,
+                                 ro) ||
+      rs.rounds <= 0)
+    return false;
+  ++details_.refined_elements;
+  details_.refined_vertices += static_cast<int>(rs.added_vertices);
+  for (int t = 0; opt_.simulate_mapped && t < n; ++t) {
+    std::string unsimulated;
+    const bool simulated =
+        problem_.simulate_on_mapped(run_.sample_row[static_cast<std::size_t>(terms[t])], refined,
+                                    remapped[static_cast<std::size_t>(t)], unsimulated);
+    problem_.count_simulated(simulated, unsimulated);
+  }
+  return true;
+}
+
+// Sample k (outside element `leaf`, canonical row crow) carried from a neighbour element
+// through a shared sample (§5.3): the first neighbour, in id order, whose box touches leaf's,
+// whose centre is feasible and through which k can be carried.
+bool ElementStage::bridge(int leaf, int crow, int k, MappedSample& res) {
+  const core::IBox& box = tree_.node(leaf).box;
+  const core::IPoint& pk = basis_.sample(k);
+  std::vector<int> around;
+  tree_.leaves_containing(pk, around);
+  std::sort(around.begin(), around.end());
+  for (int nb : around) {
+    if (nb == leaf || !core::boxes_touch(tree_.node(nb).box, box, K_)) continue;
+    const int nrow = run_.centre_row[static_cast<std::size_t>(nb)];
+    if (nrow < 0 || !problem_.sample(nrow).feasible) continue;
+    const int s = shared_sample(leaf, nb, k);
+    if (s >= 0 && carry(k, s, nrow, crow, res)) return true;
+  }
+  ++out_.neighbour.bridge_failed;
+  return false;
+}
+
+// The shared sample of elements `leaf` and `nb` for sample k: a sample on both closed elements
+// (B(l) and B(l'), not necessarily a term: psi_s may vanish on l), feasible, nearest to k on the
+// integer grid (smallest id on ties); -1 when there is none.
+int ElementStage::shared_sample(int leaf, int nb, int k) const {
+  const core::IPoint& pk = basis_.sample(k);
+  int s = -1;
+  double best = std::numeric_limits<double>::infinity();
+  const std::vector<int>& mine = basis_.element_samples(leaf);
+  const std::vector<int>& theirs = basis_.element_samples(nb);
+  std::vector<int> both;
+  std::set_intersection(mine.begin(), mine.end(), theirs.begin(), theirs.end(),
+                        std::back_inserter(both));
+  for (int cand : both) {
+    const int row = run_.sample_row[static_cast<std::size_t>(cand)];
+    if (cand == k || row < 0 || !problem_.sample(row).feasible) continue;
+    const core::IPoint& ps = basis_.sample(cand);
+    double d = 0;
+    for (int a = 0; a < K_; ++a)
+      d += std::abs(static_cast<double>(ps[static_cast<std::size_t>(a)]) -
+                    static_cast<double>(pk[static_cast<std::size_t>(a)]));
+    if (d < best) {
+      best = d;
+      s = cand;
+    }
+  }
+  return s;
+}
+
+// p_k^l from p_k^{l'}: sample k in the neighbour's canonical mesh (row nrow) carried into this
+// element's (row crow) by F: p_s^l -> p_s^{l'} of shared sample s (NeighbourBridge). False when
+// a view or the bridge fails, or the result has inverted tets (never emitted, as the mapper
+// itself refuses them).
+bool ElementStage::carry(int k, int s, int nrow, int crow, MappedSample& res) {
+  const int krow = run_.sample_row[static_cast<std::size_t>(k)];
+  const int srow = run_.sample_row[static_cast<std::size_t>(s)];
+  MeshProblem::View pk_n, ps_n, ps_l;
+  if (!problem_.view(krow, nrow, pk_n) || !problem_.view(srow, nrow, ps_n) ||
+      !problem_.view(srow, crow, ps_l))
+    return false;
+  const Sample& ncanon = problem_.sample(nrow);
+  const Sample& canon = problem_.sample(crow);
+  const std::size_t nv3 = ncanon.vertices.size();
+  const mapping::NeighbourBridge br(
+      ncanon, std::vector<double>(ps_n.vertices, ps_n.vertices + nv3), canon,
+      std::vector<double>(ps_l.vertices, ps_l.vertices + canon.vertices.size()));
+  MappedSample in;
+  in.vertices.assign(pk_n.vertices, pk_n.vertices + nv3);
+  for (std::size_t f = 0; f < ncanon.fields.size(); ++f)
+    in.fields.emplace_back(pk_n.fields[f], pk_n.fields[f] + ncanon.fields[f].values.size());
+  std::string why;
+  if (!br.apply(in, res, why)) return false;
+  if (mapping::tet_quality(res.vertices, canon.tets).inverted > 0) {
+    ++out_.neighbour.bridge_inverted;
+    return false;
+  }
+  return true;
+}
+
+// BuildOptions::measure_neighbour_transfer: both routes of term row `row` into row crow's mesh
+// (the direct view, and `viab` carried through a shared sample) against the term's own sample.
+void ElementStage::compare_routes(int row, int crow, const MappedSample* viab) {
+  MeshProblem::View d;
+  if (!viab || !problem_.view(row, crow, d)) return;
+  const Sample& src = problem_.sample(row);
+  const Sample& canon = problem_.sample(crow);
+  const double diag = src.bbox_diagonal();
+  const std::vector<double> dv(d.vertices, d.vertices + canon.vertices.size());
+  const double hd = symmetric_hausdorff(dv, canon.triangles, src.vertices, src.triangles) / diag;
+  const double hb =
+      symmetric_hausdorff(viab->vertices, canon.triangles, src.vertices, src.triangles) / diag;
+  NeighbourTransferStats& st = out_.neighbour;
+  ++st.compared;
+  st.bridged_better += hb < hd ? 1 : 0;
+  st.direct_hausdorff_max = std::max(st.direct_hausdorff_max, hd);
+  st.bridged_hausdorff_max = std::max(st.bridged_hausdorff_max, hb);
+  st.direct_hausdorff_sum += hd;
+  st.bridged_hausdorff_sum += hb;
+  st.direct_min_sj =
+      std::min(st.direct_min_sj, mapping::tet_quality(dv, canon.tets).min_scaled_jacobian);
+  st.bridged_min_sj = std::min(
+      st.bridged_min_sj, mapping::tet_quality(viab->vertices, canon.tets).min_scaled_jacobian);
+}
+
+}  // namespace
+
+const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
+                           MeshProblem& problem, const core::AdaptiveRun& run,
+                           const core::CompiledBasis& cb, const std::vector<int>& leaves,
+                           BuildReport& details, BuildResult& out,
+                           std::vector<std::uint8_t>& element_ok) {
+  return ElementStage(host, opt, exec, problem, run, cb, leaves, details, out, element_ok).run();
+}
+
+}  // namespace cadinterp::builder

@@ -1,0 +1,32 @@
+// The element stage (paper §4.2, §6; §5.3 for cubic elements): after the adaptive refinement,
+// each element of the K-d tree gets its canonical mesh (the host's sample at its centre) and
+// every term's sample in that mesh's combinatorics (mapped directly, or carried from a
+// neighbour element through a shared sample), and becomes the asset's element record.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "builder/build.h"
+#include "builder/mesh_problem.h"
+#include "core/adaptive.h"
+#include "core/compiled_basis.h"
+
+namespace cadinterp::builder {
+
+/// Appends the record of every element (leaves[e], the leaves of run.basis' tree, element e of
+/// `cb`) to out.content.elements, in that order, from the rows of `problem`. An element whose
+/// centre or one of whose samples is infeasible, or with a term that can be neither mapped nor
+/// carried from a neighbour, is refused: element_ok[e] = 0 (element_ok holds one entry per
+/// leaf), counted in details.counts and details, the unmapped term named in out.infeasible.
+/// Fills out.neighbour. Returns the canonical sample of the first element built (its fields and
+/// regions describe the asset), or nullptr when every element was refused.
+/// Elements are built one after another, so the result does not depend on the thread count;
+/// only an element's canonical refinement runs on exec's thread count.
+const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
+                           MeshProblem& problem, const core::AdaptiveRun& run,
+                           const core::CompiledBasis& cb, const std::vector<int>& leaves,
+                           BuildReport& details, BuildResult& out,
+                           std::vector<std::uint8_t>& element_ok);
+
+}  // namespace cadinterp::builder

@@ -1,0 +1,303 @@
+// The adaptive sampling problem over meshes (mesh_problem.h, paper §4.2): host samples per row,
+// the refinement test on mapped meshes, and the bounded cache of mapped rows.
+#include "builder/mesh_problem.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <thread>
+
+#include "mesh/surface_distance.h"
+#include "mapping/field_transfer.h"
+
+namespace cadinterp::builder {
+
+FieldSignature FieldSignature::of(const Sample& s) {
+  FieldSignature f;
+  for (const Field& x : s.fields) {
+    f.names.push_back(x.name);
+    f.locations.push_back(x.location);
+    f.components.push_back(x.components);
+  }
+  return f;
+}
+
+void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<double>& x,
+                           std::vector<char>& feasible) {
+  const StageTimer timer(details_.sampling_seconds);
+  details_.points_requested += static_cast<int>(rows.size());
+  // Until the basis exists, `samples` says how many points were asked for (BuildReport).
+  report_.samples = details_.points_requested;
+  const std::size_t K = static_cast<std::size_t>(host_.dim());
+  std::vector<std::vector<double>> pending;
+  std::vector<int> pending_rows;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    std::vector<double> xi(x.begin() + static_cast<std::ptrdiff_t>(i * K),
+                           x.begin() + static_cast<std::ptrdiff_t>((i + 1) * K));
+    const auto r = static_cast<std::size_t>(rows[i]);
+    if (samples_.size() <= r) {
+      samples_.resize(r + 1);
+      points_.resize(r + 1);
+    }
+    points_[r] = xi;
+    Sample s;
+    if (store_ && store_->get(xi, s)) {
+      ++report_.store_hits;
+      samples_[r] = std::make_shared<const Sample>(std::move(s));
+    } else {
+      pending.push_back(std::move(xi));
+      pending_rows.push_back(rows[i]);
+    }
+  }
+  done_ += static_cast<int>(rows.size() - pending.size());  // store hits count as done
+  std::size_t delivered = 0;
+  const bool complete = exec_.run(
+      pending,
+      [&](std::size_t i, Sample&& s) {
+        if (store_) store_->put(pending[i], s);
+        ++report_.host_evaluations;
+        report_.host_seconds += s.host_seconds;
+        samples_[static_cast<std::size_t>(pending_rows[i])] =
+            std::make_shared<const Sample>(std::move(s));
+        ++done_;
+        ++delivered;
+        host_seconds_done_ += samples_[static_cast<std::size_t>(pending_rows[i])]->host_seconds;
+        cancel_ = cancel_ || report_progress(static_cast<int>(pending.size() - delivered));
+      },
+      [&] { return cancel_; });
+  if (!complete || cancel_) throw BuildCancelled();
+  // Decided in row order, after the whole wave: the outcome cannot depend on which thread
+  // finished first.
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto r = static_cast<std::size_t>(rows[i]);
+    std::shared_ptr<const Sample>& s = samples_[r];
+    if (s->feasible) {
+      const FieldSignature sig = FieldSignature::of(*s);
+      if (!signature_) {
+        signature_ = sig;
+      } else if (!(sig == *signature_)) {
+        auto bad = std::make_shared<Sample>();
+        bad->message = "the host's fields differ from those of the build's first sample";
+        s = bad;
+      }
+    }
+    feasible[i] = s->feasible ? 1 : 0;
+    if (!s->feasible) {
+      ++report_.infeasible_points;
+      count_reason(details_.infeasible_reasons, details_.other_infeasible_points, s->message,
+                   points_[r]);
+    }
+    if (classes_.size() <= r) classes_.resize(r + 1, -1);
+    if (s->feasible) classes_[r] = combinatorics_class(*s);
+  }
+  report_progress(0);
+}
+
+double MeshProblem::interpolation_error(int at, int centre, const int* terms, const double* psi,
+                                        int n) {
+  const Sample& canon = sample(centre);
+  const std::size_t nv3 = canon.vertices.size();
+  std::vector<double> V(nv3, 0.0);
+  const std::size_t nfields = canon.fields.size();
+  std::vector<std::vector<double>> F(nfields);
+  for (std::size_t f = 0; f < nfields; ++f) F[f].assign(canon.fields[f].values.size(), 0.0);
+  View m;
+  for (int t = 0; t < n; ++t) {
+    if (!view(terms[t], centre, m)) return std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < nv3; ++i) V[i] += psi[t] * m.vertices[i];
+    for (std::size_t f = 0; f < nfields; ++f)
+      for (std::size_t i = 0; i < F[f].size(); ++i) F[f][i] += psi[t] * m.fields[f][i];
+  }
+  const Sample& truth = sample(at);
+  const double target = truth.bbox_diagonal() * opt_.geometry_tolerance;
+  double err = -1;
+  if (classes_[static_cast<std::size_t>(at)] == classes_[static_cast<std::size_t>(centre)]) {
+    // Same mesh: the largest vertex displacement bounds the Hausdorff distance from above
+    // (corresponding triangles are within it everywhere), and settles most tests in O(V);
+    // only above the target is the exact distance worth its cost.
+    double d2 = 0;
+    for (std::size_t i = 0; i < nv3; i += 3) {
+      double q = 0;
+      for (std::size_t c = 0; c < 3; ++c)
+        q += (V[i + c] - truth.vertices[i + c]) * (V[i + c] - truth.vertices[i + c]);
+      d2 = std::max(d2, q);
+    }
+    if (std::sqrt(d2) <= target) err = std::sqrt(d2) / target;
+  }
+  if (err < 0)
+    err = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles) / target;
+  if (nfields) {
+    if (!view(at, centre, m)) return std::numeric_limits<double>::infinity();
+    for (std::size_t f = 0; f < nfields; ++f) {
+      const std::vector<double>& tv = truth.fields[f].values;
+      const auto mm = std::minmax_element(tv.begin(), tv.end());
+      // A constant field is measured against its magnitude instead (and 1 if it is 0).
+      double range = *mm.second - *mm.first;
+      if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
+      double e = 0;
+      for (std::size_t i = 0; i < F[f].size(); ++i)
+        e = std::max(e, std::abs(F[f][i] - m.fields[f][i]));
+      err = std::max(err, e / (range * opt_.field_tolerance));
+    }
+  }
+  return err;
+}
+
+double MeshProblem::midpoint_error(int a, int b, int c) {
+  const int terms[2] = {a, b};
+  const double psi[2] = {0.5, 0.5};
+  return interpolation_error(c, c, terms, psi, 2);
+}
+
+bool MeshProblem::view(int src, int canon, View& v) {
+  v.fields.clear();
+  v.hold.reset();
+  if (classes_[static_cast<std::size_t>(src)] == classes_[static_cast<std::size_t>(canon)]) {
+    const Sample& s = sample(src);
+    v.vertices = s.vertices.data();
+    for (const Field& f : s.fields) v.fields.push_back(f.values.data());
+    return true;
+  }
+  const auto key = std::make_pair(src, canon);
+  std::shared_ptr<const MappedSample> found;
+  {
+    std::lock_guard<std::mutex> lock(maps_mu_);
+    if (failures_.count(key)) return false;
+    auto it = maps_.find(key);
+    if (it != maps_.end()) found = it->second.first;
+  }
+  if (!found) {
+    // Mapped outside the lock (mapping is the expensive part); two threads may map the same
+    // pair, with the same deterministic result.
+    auto m = std::make_shared<MappedSample>();
+    std::string why;
+    const bool ok = mapper_.map(sample(src), sample(canon), *m, why);
+    std::string unsimulated;
+    const bool simulated =
+        ok && opt_.simulate_mapped && simulate_on_mapped(src, sample(canon), *m, unsimulated);
+    std::lock_guard<std::mutex> lock(maps_mu_);
+    if (ok && opt_.simulate_mapped) count_simulated(simulated, unsimulated);
+    if (!ok) {
+      failures_.emplace(key, why);
+      return false;
+    }
+    std::size_t bytes = m->vertices.size() * sizeof(double);
+    for (const auto& f : m->fields) bytes += f.size() * sizeof(double);
+    // Oldest entries go first once the cache is over budget (maps are recomputed on demand).
+    while (!order_.empty() && map_bytes_ + bytes > kMapCacheBytes) {
+      auto old = maps_.find(order_.front());
+      order_.pop_front();
+      if (old == maps_.end()) continue;
+      map_bytes_ -= old->second.second;
+      maps_.erase(old);
+    }
+    if (maps_.emplace(key, std::make_pair(m, bytes)).second) {
+      order_.push_back(key);
+      map_bytes_ += bytes;
+    }
+    found = m;
+  }
+  v.hold = found;
+  v.vertices = found->vertices.data();
+  for (const auto& f : found->fields) v.fields.push_back(f.data());
+  return true;
+}
+
+bool MeshProblem::simulate_on_mapped(int src, const Sample& canon, MappedSample& m,
+                                     std::string& why) const {
+  const Sample& s = sample(src);
+  Sample mesh;
+  if (!mapping::mesh_for_simulation(s, canon, m.vertices, mesh, why)) return false;
+  const Sample r = host_.simulate(point(src).data(), mesh);
+  if (!r.feasible) {
+    why = r.message;
+    return false;
+  }
+  std::vector<std::vector<double>> fields;
+  for (const Field& f : s.fields) {
+    const auto it = std::find_if(r.fields.begin(), r.fields.end(), [&](const Field& g) {
+      return g.name == f.name && g.location == f.location && g.components == f.components;
+    });
+    if (it == r.fields.end()) {
+      why = "simulate on the mapped mesh gave no field '" + f.name + "' like the sample's";
+      return false;
+    }
+    fields.push_back(it->values);
+  }
+  m.fields = std::move(fields);
+  return true;
+}
+
+void MeshProblem::count_simulated(bool simulated, const std::string& unsimulated) {
+  if (simulated) {
+    ++details_.mapped_simulated;
+  } else if (details_.mapped_simulate_failures++ == 0) {
+    details_.first_mapped_simulate_failure = unsimulated;
+  }
+}
+
+const std::string& MeshProblem::why(int src, int canon) {
+  std::lock_guard<std::mutex> lock(maps_mu_);
+  return failures_[std::make_pair(src, canon)];
+}
+
+void MeshProblem::errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) {
+  out.assign(q.size(), 0.0);
+  const std::size_t threads =
+      std::min<std::size_t>(q.size(), static_cast<std::size_t>(std::max(1, exec_.concurrency())));
+  if (threads <= 1) return AdaptiveProblem::errors(q, out);
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mu;
+  auto work = [&] {
+    try {
+      for (std::size_t i; (i = next.fetch_add(1)) < q.size();) out[i] = error(q[i]);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(failure_mu);
+      if (!failure) failure = std::current_exception();
+      next = q.size();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+bool MeshProblem::report_progress(int queued) {
+  if (!opt_.progress) return false;
+  cadinterp_progress p{};
+  p.samples_done = done_;
+  p.samples_queued = queued;
+  p.elements = elements_;
+  p.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
+  const int evaluated = report_.host_evaluations;
+  p.eta_seconds = evaluated > 0 && queued > 0
+                      ? host_seconds_done_ / evaluated * queued / std::max(1, exec_.concurrency())
+                      : (queued > 0 ? -1.0 : 0.0);
+  return opt_.progress(p);
+}
+
+void MeshProblem::on_wave(int elements) {
+  elements_ = elements;
+  report_.elements = elements;
+}
+
+int MeshProblem::combinatorics_class(const Sample& s) {
+  std::uint64_t h = s.vertex_count();
+  auto mix = [&h](std::uint64_t v) { h = (h ^ v) * 0x100000001b3ull; };
+  for (std::uint32_t v : s.tets) mix(v);
+  for (std::uint32_t v : s.triangles) mix(v);
+  for (std::int32_t v : s.triangle_tags) mix(static_cast<std::uint32_t>(v));
+  for (int c : class_by_hash_[h])
+    if (same_combinatorics(s, *representatives_[static_cast<std::size_t>(c)])) return c;
+  const int c = static_cast<int>(representatives_.size());
+  representatives_.push_back(&s);
+  class_by_hash_[h].push_back(c);
+  return c;
+}
+
+}  // namespace cadinterp::builder

@@ -1,0 +1,127 @@
+// The adaptive sampling problem over meshes (paper §4.2): what core::adaptive_run asks of the
+// builder. It owns the build's rows (host samples, from the sample store or the executor), their
+// combinatorics classes, and the cache of rows mapped into other rows' canonical meshes (§6);
+// the refinement test is the error of build.h over those maps. The element stage
+// (element_stage.h) reads the same rows and maps after the refinement.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "builder/build.h"
+#include "builder/sample_store.h"
+#include "builder/stage_report.h"
+#include "core/adaptive.h"
+
+namespace cadinterp::builder {
+
+// The field layout every feasible sample of a build must share (cadinterp_sample_add_field).
+struct FieldSignature {
+  std::vector<std::string> names;
+  std::vector<int> locations, components;
+  static FieldSignature of(const Sample& s);
+  bool operator==(const FieldSignature& o) const {
+    return names == o.names && locations == o.locations && components == o.components;
+  }
+};
+
+// The driver's problem over meshes: rows are host samples (from the store or the executor);
+// errors are measured on meshes mapped into the element's canonical combinatorics.
+class MeshProblem final : public core::AdaptiveProblem {
+ public:
+  MeshProblem(const Host& host, const BuildOptions& opt, const Mapper& mapper, Executor& exec,
+              SampleStore* store, BuildReport& report, Clock::time_point start)
+      : host_(host),
+        opt_(opt),
+        mapper_(mapper),
+        exec_(exec),
+        store_(store),
+        details_(report),
+        report_(report.counts),
+        start_(start) {}
+
+  /// A wave of rows: from the store where it has them, else from the host through the
+  /// executor (each stored as it arrives); feasibility and reasons decided in row order.
+  /// Throws BuildCancelled when the progress callback or the executor cancels.
+  void evaluate(const std::vector<int>& rows, const std::vector<double>& x,
+                std::vector<char>& feasible) override;
+  /// The refinement test of build.h on the terms mapped into the canonical mesh of `centre`
+  /// (infinity where a term cannot be mapped).
+  double interpolation_error(int at, int centre, const int* terms, const double* psi,
+                             int n) override;
+  double midpoint_error(int a, int b, int c) override;
+  /// The wave's refinement tests on the executor's thread count (each is independent).
+  void errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) override;
+  void on_wave(int elements) override;
+
+  const Sample& sample(int row) const { return *samples_[static_cast<std::size_t>(row)]; }
+  const std::vector<double>& point(int row) const { return points_[static_cast<std::size_t>(row)]; }
+  int rows() const { return static_cast<int>(samples_.size()); }
+
+  /// Row `src`'s vertices and fields in the combinatorics of row `canon`: the source's own
+  /// arrays where the two share combinatorics (identity, no copy), else the mapper's result,
+  /// kept in a cache of bounded size. False (see why()) when the mapper cannot map them.
+  struct View {
+    const double* vertices = nullptr;
+    std::vector<const double*> fields;
+    std::shared_ptr<const MappedSample> hold;  // keeps a cached map alive while viewed
+  };
+  /// Thread-safe: the driver's errors() runs it from several threads.
+  bool view(int src, int canon, View& v);
+  /// simulate_mapped: replaces the carried fields of `m` (row src mapped onto `canon`'s mesh)
+  /// by the host's simulate at row src's x on that mesh. False with `why` (m untouched) where
+  /// the regions cannot be placed, the host fails, or it returns other fields.
+  bool simulate_on_mapped(int src, const Sample& canon, MappedSample& m, std::string& why) const;
+  /// Counts one simulate_mapped outcome (the caller holds maps_mu_ or runs alone).
+  void count_simulated(bool simulated, const std::string& unsimulated);
+  /// True when rows a and b share combinatorics (their terms are blended without a mapping).
+  bool same_class(int a, int b) const {
+    return classes_[static_cast<std::size_t>(a)] == classes_[static_cast<std::size_t>(b)];
+  }
+  const Mapper& mapper() const { return mapper_; }
+  /// The mapper's message for a pair view() could not map.
+  const std::string& why(int src, int canon);
+
+  /// Calls the progress callback; returns true to cancel.
+  bool report_progress(int queued);
+
+ private:
+  static constexpr std::size_t kMapCacheBytes = std::size_t(512) << 20;
+
+  // Rows with identical meshes (vertex count, tets, triangles, tags) share a class: the identity
+  // mapping holds between them. Classes are numbered in row order, so deterministically.
+  int combinatorics_class(const Sample& s);
+
+  const Host& host_;
+  const BuildOptions& opt_;
+  const Mapper& mapper_;
+  Executor& exec_;
+  SampleStore* store_;
+  BuildReport& details_;
+  cadinterp_build_report& report_;  // details_.counts
+  Clock::time_point start_;
+  std::vector<std::shared_ptr<const Sample>> samples_;  // per row
+  std::vector<std::vector<double>> points_;             // per row
+  std::optional<FieldSignature> signature_;
+  std::vector<int> classes_;                    // per row (-1: infeasible)
+  std::vector<const Sample*> representatives_;  // per class
+  std::map<std::uint64_t, std::vector<int>> class_by_hash_;
+  std::map<std::pair<int, int>, std::pair<std::shared_ptr<MappedSample>, std::size_t>> maps_;
+  std::deque<std::pair<int, int>> order_;  // insertion order of maps_ (eviction)
+  std::map<std::pair<int, int>, std::string> failures_;
+  std::size_t map_bytes_ = 0;
+  std::mutex maps_mu_;  // guards maps_, order_, failures_, map_bytes_
+  int done_ = 0, elements_ = 0;
+  double host_seconds_done_ = 0;
+  bool cancel_ = false;
+};
+
+}  // namespace cadinterp::builder
