@@ -13,6 +13,7 @@
 // fuzz_open_eval, so mutations reach the index checks and the decoders.
 //
 // Build and run: scripts/fuzz.sh [SECONDS] (seeds: conformance/cases/*/*/asset.cadi).
+// One file past 800 lines: a libFuzzer target is one program, its checks one contract.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <xxhash.h>
 
