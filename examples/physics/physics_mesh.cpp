@@ -28,9 +28,8 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 constexpr int kTetEdges[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
 constexpr int kTriangleEdges[3][2] = {{0, 1}, {1, 2}, {2, 0}};
 
-}  // namespace
-
-Discretization discretize(const TetMesh& mesh, int order) {
+// The element order, the arrays' sizes, finite coordinates and indices in range.
+void check_arrays(const TetMesh& mesh, int order) {
   if (order != 1 && order != 2) {
     throw Error("physics: element order " + std::to_string(order) + " is not 1 or 2");
   }
@@ -47,8 +46,6 @@ Discretization discretize(const TetMesh& mesh, int order) {
                 std::to_string(mesh.triangle_tags.size()) + " not 3*#F and #F)");
   }
   const std::size_t nv = mesh.vertices.size() / 3;
-  const std::size_t nt = mesh.tets.size() / 4;
-  const std::size_t nf = mesh.triangle_tags.size();
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
     if (!std::isfinite(mesh.vertices[i])) {
       throw Error("physics: vertex " + std::to_string(i / 3) + " has a non-finite coordinate");
@@ -66,8 +63,12 @@ Discretization discretize(const TetMesh& mesh, int order) {
                   std::to_string(mesh.triangles[i]) + " of " + std::to_string(nv));
     }
   }
-  // Volumes: an inverted tet would give a negative-definite element matrix, a flat one a
-  // singular Jacobian; both are named rather than solved into garbage.
+}
+
+// Volumes: an inverted tet would give a negative-definite element matrix, a flat one a
+// singular Jacobian; both are named rather than solved into garbage.
+void check_volumes(const TetMesh& mesh) {
+  const std::size_t nt = mesh.tets.size() / 4;
   for (std::size_t t = 0; t < nt; ++t) {
     const std::uint32_t* q = &mesh.tets[4 * t];
     const Vec3 p0 = vertex(mesh.vertices, q[0]);
@@ -90,6 +91,13 @@ Discretization discretize(const TetMesh& mesh, int order) {
                   std::to_string(six_v / 6) + ")");
     }
   }
+}
+
+// Every vertex belongs to a tet, and each boundary triangle is a face of a tet and points away
+// from it: the loads (pressure along the normal) and the order-2 face nodes depend on it.
+void check_boundary(const TetMesh& mesh) {
+  const std::size_t nv = mesh.vertices.size() / 3;
+  const std::size_t nf = mesh.triangle_tags.size();
   // Vertex -> tets (CSR), to check the boundary triangles and find unused vertices.
   std::vector<std::size_t> vt_start(nv + 1, 0);
   for (std::uint32_t v : mesh.tets) ++vt_start[v + 1];
@@ -107,8 +115,6 @@ Discretization discretize(const TetMesh& mesh, int order) {
       vt[fill[mesh.tets[i]]++] = static_cast<std::uint32_t>(i / 4);
     }
   }
-  // Each boundary triangle must be a face of a tet and point away from it: the loads
-  // (pressure along the normal) and the order-2 face nodes depend on it.
   for (std::size_t f = 0; f < nf; ++f) {
     const std::uint32_t* tri = &mesh.triangles[3 * f];
     bool found = false;
@@ -137,21 +143,14 @@ Discretization discretize(const TetMesh& mesh, int order) {
       throw Error("physics: boundary triangle " + std::to_string(f) + " is not a tet face");
     }
   }
+}
 
-  Discretization d;
-  d.order = order;
-  d.vertex_count = nv;
-  d.face_tags = mesh.triangle_tags;
-  if (order == 1) {
-    d.node_count = nv;
-    d.nodes = mesh.vertices;
-    d.nodes_per_element = 4;
-    d.elements = mesh.tets;
-    d.nodes_per_face = 3;
-    d.faces = mesh.triangles;
-    return d;
-  }
-  // Order 2: one node per unique edge, numbered after the vertices in sorted-key order.
+// Order 2: one node per unique edge, numbered after the vertices in sorted-key order, at the
+// edge's midpoint; the elements' and faces' nodes are their corners, then their edges' nodes.
+void quadratic_layout(const TetMesh& mesh, Discretization& d) {
+  const std::size_t nv = mesh.vertices.size() / 3;
+  const std::size_t nt = mesh.tets.size() / 4;
+  const std::size_t nf = mesh.triangle_tags.size();
   std::vector<std::uint64_t> edges;
   edges.reserve(6 * nt);
   for (std::size_t t = 0; t < nt; ++t) {
@@ -197,6 +196,28 @@ Discretization discretize(const TetMesh& mesh, int order) {
       out[3 + e] = edge_node(tri[kTriangleEdges[e][0]], tri[kTriangleEdges[e][1]], f);
     }
   }
+}
+
+}  // namespace
+
+Discretization discretize(const TetMesh& mesh, int order) {
+  check_arrays(mesh, order);
+  check_volumes(mesh);
+  check_boundary(mesh);
+  Discretization d;
+  d.order = order;
+  d.vertex_count = mesh.vertices.size() / 3;
+  d.face_tags = mesh.triangle_tags;
+  if (order == 1) {
+    d.node_count = d.vertex_count;
+    d.nodes = mesh.vertices;
+    d.nodes_per_element = 4;
+    d.elements = mesh.tets;
+    d.nodes_per_face = 3;
+    d.faces = mesh.triangles;
+    return d;
+  }
+  quadratic_layout(mesh, d);
   return d;
 }
 

@@ -223,16 +223,26 @@ void check_rigid_body(const Discretization& d, const std::vector<std::uint8_t>& 
   }
 }
 
-Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const NodeGraph& graph,
-                              const Eigen::VectorXd* temperature, SolverKind kind, Solution& out) {
-  auto t0 = Clock::now();
-  const Material& m = p.material;
-  const double E = m.youngs_modulus, nu = m.poisson_ratio;
-  const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
+// The material's Lame constants and thermal stress factor.
+struct Elastic {
+  double lambda, mu;
   // Thermal stress -beta alpha (T - T_ref) I with beta = 3 lambda + 2 mu = E / (1 - 2 nu).
-  const double beta_alpha = E / (1 - 2 * nu) * m.thermal_expansion;
+  double beta_alpha;
+  explicit Elastic(const Material& m) {
+    const double E = m.youngs_modulus, nu = m.poisson_ratio;
+    lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+    mu = E / (2 * (1 + nu));
+    beta_alpha = E / (1 - 2 * nu) * m.thermal_expansion;
+  }
+};
+
+// The element stiffness matrices into sys.K, and with a temperature field its thermal load into
+// sys.f.
+void assemble_elastic(const Discretization& d, const Elastic& lame,
+                      const Eigen::VectorXd* temperature, double reference_temperature,
+                      System& sys) {
+  const double lambda = lame.lambda, mu = lame.mu, beta_alpha = lame.beta_alpha;
   const int n = d.nodes_per_element;
-  System sys(graph, 3);
   double Ke[30 * 30];
   double N[10], dN[10][3];
   const Rule& rule = n == 4 ? kRule1 : kRule2;
@@ -264,7 +274,7 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
       // Thermal load int beta alpha (T - T_ref) dN_a dV (one-way coupling).
       for (int q = 0; q < thermal_rule.count; ++q) {
         shape(n, thermal_rule.L[q], g, N, dN);
-        double dT = -m.reference_temperature;
+        double dT = -reference_temperature;
         for (int a = 0; a < n; ++a) dT += N[a] * (*temperature)[el[a]];
         const double w = thermal_rule.w[q] * g.volume * beta_alpha * dT;
         for (int a = 0; a < n; ++a) {
@@ -273,6 +283,11 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
       }
     }
   }
+}
+
+// The Force regions (a total force spread over the region by area) and the Pressure regions
+// into sys.f.
+void add_surface_loads(const Problem& p, const Discretization& d, System& sys) {
   for (const Force& force : p.forces) {
     for (double v : force.force) check_finite(v, "Force.force");
     const auto faces = faces_with_tags(d, force.tags, "Force");
@@ -297,12 +312,13 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
       });
     }
   }
-  if (p.fixed.empty()) {
-    throw Error("physics: elastic problem without a Fixed region: rigid-body motion is free");
-  }
-  // Fixed components; each remembers the first region fixing it, for the reactions.
-  std::vector<std::uint8_t> fixed(3 * d.node_count, 0);
-  std::vector<std::int32_t> owner(3 * d.node_count, -1);
+}
+
+// Fixed components; each remembers the first region fixing it in `owner`, for the reactions.
+void fixed_components(const Problem& p, const Discretization& d, std::vector<std::uint8_t>& fixed,
+                      std::vector<std::int32_t>& owner) {
+  fixed.assign(3 * d.node_count, 0);
+  owner.assign(3 * d.node_count, -1);
   for (std::size_t r = 0; r < p.fixed.size(); ++r) {
     const Fixed& fx = p.fixed[r];
     for (std::uint32_t f : faces_with_tags(d, fx.tags, "Fixed")) {
@@ -316,26 +332,18 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
       }
     }
   }
-  check_rigid_body(d, fixed);
-  sys.constrain(fixed, Eigen::VectorXd::Zero(static_cast<Eigen::Index>(fixed.size())));
-  out.assemble_seconds += seconds_since(t0);
-  LinearSolveResult r = solve_linear(sys.K, sys.f, kind, p.cg_tolerance, {&graph, &d.nodes, 3});
-  out.solve_seconds += r.seconds;
-  out.iterations = r.iterations;
-  const Eigen::VectorXd& u = r.x;
+}
 
-  t0 = Clock::now();
-  // Reactions: K u - f on the fixed components (the support force on the solid).
-  out.reactions.assign(3 * p.fixed.size(), 0.0);
-  const Eigen::VectorXd residual = sys.constrained_residual(u);
-  for (std::size_t k = 0; k < sys.constrained_dofs().size(); ++k) {
-    const std::size_t dof = sys.constrained_dofs()[k];
-    out.reactions[3 * static_cast<std::size_t>(owner[dof]) + dof % 3] +=
-        residual[static_cast<Eigen::Index>(k)];
-  }
-  // Stress at the vertices: each tet's mechanical stress at its corners (constant for order 1,
-  // linear for order 2), averaged with volume weights; the thermal part -beta alpha dT I is
-  // added at the vertex from the vertex temperature, which is exact there.
+// Stress at the vertices: each tet's mechanical stress at its corners (constant for order 1,
+// linear for order 2), averaged with volume weights; the thermal part -beta alpha dT I is
+// added at the vertex from the vertex temperature, which is exact there. Sets out.stress and
+// out.von_mises.
+void vertex_stress(const Discretization& d, const Elastic& lame, const Eigen::VectorXd& u,
+                   const Eigen::VectorXd* temperature, double reference_temperature,
+                   Solution& out) {
+  const double lambda = lame.lambda, mu = lame.mu, beta_alpha = lame.beta_alpha;
+  const int n = d.nodes_per_element;
+  double N[10], dN[10][3];
   const std::size_t nv = d.vertex_count;
   std::vector<double> sum(6 * nv, 0.0), weight(nv, 0.0);
   static constexpr double kCorner[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
@@ -372,7 +380,7 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
     for (int k = 0; k < 6; ++k) s[k] = sum[6 * v + k] / weight[v];
     if (temperature != nullptr) {
       const double thermal =
-          beta_alpha * ((*temperature)[static_cast<Eigen::Index>(v)] - m.reference_temperature);
+          beta_alpha * ((*temperature)[static_cast<Eigen::Index>(v)] - reference_temperature);
       for (int k = 0; k < 3; ++k) s[k] -= thermal;
     }
     std::copy(s, s + 6, &out.stress[6 * v]);
@@ -381,6 +389,39 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
                          (s[2] - s[0]) * (s[2] - s[0])) +
                   3.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]));
   }
+}
+
+Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const NodeGraph& graph,
+                              const Eigen::VectorXd* temperature, SolverKind kind, Solution& out) {
+  auto t0 = Clock::now();
+  const Elastic lame(p.material);
+  System sys(graph, 3);
+  assemble_elastic(d, lame, temperature, p.material.reference_temperature, sys);
+  add_surface_loads(p, d, sys);
+  if (p.fixed.empty()) {
+    throw Error("physics: elastic problem without a Fixed region: rigid-body motion is free");
+  }
+  std::vector<std::uint8_t> fixed;
+  std::vector<std::int32_t> owner;
+  fixed_components(p, d, fixed, owner);
+  check_rigid_body(d, fixed);
+  sys.constrain(fixed, Eigen::VectorXd::Zero(static_cast<Eigen::Index>(fixed.size())));
+  out.assemble_seconds += seconds_since(t0);
+  LinearSolveResult r = solve_linear(sys.K, sys.f, kind, p.cg_tolerance, {&graph, &d.nodes, 3});
+  out.solve_seconds += r.seconds;
+  out.iterations = r.iterations;
+  const Eigen::VectorXd& u = r.x;
+
+  t0 = Clock::now();
+  // Reactions: K u - f on the fixed components (the support force on the solid).
+  out.reactions.assign(3 * p.fixed.size(), 0.0);
+  const Eigen::VectorXd residual = sys.constrained_residual(u);
+  for (std::size_t k = 0; k < sys.constrained_dofs().size(); ++k) {
+    const std::size_t dof = sys.constrained_dofs()[k];
+    out.reactions[3 * static_cast<std::size_t>(owner[dof]) + dof % 3] +=
+        residual[static_cast<Eigen::Index>(k)];
+  }
+  vertex_stress(d, lame, u, temperature, p.material.reference_temperature, out);
   out.assemble_seconds += seconds_since(t0);
   return u;
 }

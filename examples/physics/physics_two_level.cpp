@@ -192,60 +192,62 @@ NodeAggregateBlocks multiply_K(const SparseMatrix& K, const NodeGraph& graph,
   return out;
 }
 
-template <int C, int M>
-LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, const NodeGraph& graph,
-                            const std::vector<double>& nodes, double tolerance) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::size_t n = graph.start.size() - 1;
-  constexpr auto c = static_cast<std::size_t>(C);
-  // Aggregates: the nodes in each cell of a regular grid sized for ~kNodesPerAggregate nodes
-  // per non-empty cell (a few bisection steps on the cell size): a coarse space small enough for
-  // a cheap sparse Cholesky, rich enough (6 modes each) to carry the global bending.
+// Aggregates: the nodes in each cell of a regular grid sized for ~kNodesPerAggregate nodes
+// per non-empty cell (a few bisection steps on the cell size): a coarse space small enough for
+// a cheap sparse Cholesky, rich enough (6 modes each) to carry the global bending. Sets each
+// node's aggregate in `label`; returns the number of aggregates.
+std::size_t aggregate_nodes(const std::vector<double>& nodes, std::size_t n,
+                            std::vector<std::int32_t>& label) {
   const std::size_t wanted = std::max<std::size_t>(1, n / kNodesPerAggregate);
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
   for (std::size_t i = 0; i < n; ++i) {
     lo = lo.cwiseMin(Eigen::Map<const Eigen::Vector3d>(&nodes[3 * i]));
     hi = hi.cwiseMax(Eigen::Map<const Eigen::Vector3d>(&nodes[3 * i]));
   }
-  std::vector<std::int32_t> label(n);
-  std::int32_t count2 = 0;
-  {
-    std::vector<std::uint64_t> keys(n), sorted;
-    double cell = (hi - lo).maxCoeff() + 1e-300;
-    double lo_cell = 0, hi_cell = cell;  // cells too small (many) .. too big (few)
-    for (int step = 0; step < 9; ++step) {
-      for (std::size_t i = 0; i < n; ++i) {
-        std::uint64_t key = 0;
-        for (int k = 0; k < 3; ++k) {
-          key = key * 2097152u +
-                static_cast<std::uint64_t>((nodes[3 * i + k] - lo[k]) / cell) % 2097152u;
-        }
-        keys[i] = key;
-      }
-      sorted = keys;
-      std::sort(sorted.begin(), sorted.end());
-      sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
-      if (step == 8) break;
-      if (sorted.size() > wanted) {
-        lo_cell = cell;
-      } else {
-        hi_cell = cell;
-      }
-      cell = lo_cell > 0 ? 0.5 * (lo_cell + hi_cell) : 0.5 * hi_cell;
-    }
+  label.assign(n, 0);
+  std::vector<std::uint64_t> keys(n), sorted;
+  double cell = (hi - lo).maxCoeff() + 1e-300;
+  double lo_cell = 0, hi_cell = cell;  // cells too small (many) .. too big (few)
+  for (int step = 0; step < 9; ++step) {
     for (std::size_t i = 0; i < n; ++i) {
-      label[i] = static_cast<std::int32_t>(std::lower_bound(sorted.begin(), sorted.end(), keys[i]) -
-                                           sorted.begin());
+      std::uint64_t key = 0;
+      for (int k = 0; k < 3; ++k) {
+        key = key * 2097152u +
+              static_cast<std::uint64_t>((nodes[3 * i + k] - lo[k]) / cell) % 2097152u;
+      }
+      keys[i] = key;
     }
-    count2 = static_cast<std::int32_t>(sorted.size());
+    sorted = keys;
+    std::sort(sorted.begin(), sorted.end());
+    sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+    if (step == 8) break;
+    if (sorted.size() > wanted) {
+      lo_cell = cell;
+    } else {
+      hi_cell = cell;
+    }
+    cell = lo_cell > 0 ? 0.5 * (lo_cell + hi_cell) : 0.5 * hi_cell;
   }
-  // Members and centroid of each aggregate.
-  const auto aggregates = static_cast<std::size_t>(count2);
+  for (std::size_t i = 0; i < n; ++i) {
+    label[i] = static_cast<std::int32_t>(std::lower_bound(sorted.begin(), sorted.end(), keys[i]) -
+                                         sorted.begin());
+  }
+  return sorted.size();
+}
+
+// Tentative prolongator: each aggregate's modes, orthonormalized (QR) and with dependent
+// ones (an aggregate on a line has no rotation about it) dropped. One block per node. Sets each
+// aggregate's number of kept modes in `rank`.
+template <int C, int M>
+NodeAggregateBlocks tentative_prolongator(const std::vector<double>& nodes,
+                                          const std::vector<std::int32_t>& label,
+                                          std::size_t aggregates, std::vector<int>& rank) {
+  const std::size_t n = label.size();
+  constexpr auto c = static_cast<std::size_t>(C);
+  // Members of each aggregate, in node order.
   std::vector<std::vector<std::uint32_t>> members(aggregates);
   for (std::size_t i = 0; i < n; ++i) members[label[i]].push_back(static_cast<std::uint32_t>(i));
-  // Tentative prolongator: each aggregate's modes, orthonormalized (QR) and with dependent
-  // ones (an aggregate on a line has no rotation about it) dropped. One block per node.
-  std::vector<int> rank(aggregates);
+  rank.assign(aggregates, 0);
   NodeAggregateBlocks T;
   T.start.assign(n + 1, 0);
   T.aggregate.resize(n);
@@ -296,14 +298,22 @@ LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, con
         T.value[(i * c + j) * M + static_cast<std::size_t>(k)] =
             Q[g](m * static_cast<Eigen::Index>(c) + static_cast<Eigen::Index>(j), k);
   }
-  Q.clear();
-  const std::size_t coarse_n = aggregates * M;
+  return T;
+}
 
-  // Smoothed aggregation: P = (I - omega D^-1 K) P_tent lowers the energy of the coarse
-  // functions (Vanek, Mandel, Brezina 1996), omega = 4 / (3 rho(D^-1 K)) with rho estimated
-  // by 6 power iterations (enough: any P gives an SPD preconditioner).
-  const SymmetricNodeBlocks<C> Kb(K, graph);
-  const Eigen::VectorXd inv_diag = K.diagonal().cwiseInverse();
+// Smoothed aggregation: P = (I - omega D^-1 K) P_tent lowers the energy of the coarse
+// functions (Vanek, Mandel, Brezina 1996), omega = 4 / (3 rho(D^-1 K)) with rho estimated
+// by 6 power iterations (enough: any P gives an SPD preconditioner). Returns P in double and
+// sets `P_single` to the same values in single precision.
+template <int C, int M>
+NodeAggregateBlocks smoothed_prolongator(const SparseMatrix& K, const NodeGraph& graph,
+                                         const SymmetricNodeBlocks<C>& Kb,
+                                         const Eigen::VectorXd& inv_diag,
+                                         const std::vector<std::int32_t>& label,
+                                         const NodeAggregateBlocks& T, std::size_t aggregates,
+                                         std::vector<float>& P_single) {
+  const std::size_t n = graph.start.size() - 1;
+  constexpr auto c = static_cast<std::size_t>(C);
   double rho = 0.0;
   {
     Eigen::VectorXd v = Eigen::VectorXd::Ones(K.rows()), w(K.rows());
@@ -316,7 +326,7 @@ LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, con
   }
   const double omega = 4.0 / (3.0 * rho);
   NodeAggregateBlocks P = multiply_K<C, M>(K, graph, T, aggregates);  // K P_tent, then P
-  std::vector<float> P_single(P.value.size());
+  P_single.assign(P.value.size(), 0.0f);
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t bb = P.start[i]; bb < P.start[i + 1]; ++bb) {
       double* v = &P.value[bb * C * M];
@@ -336,11 +346,25 @@ LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, con
       }
     }
   }
-  T = NodeAggregateBlocks{};
+  return P;
+}
 
-  // The coarse matrix P^T (K P), one block row per aggregate a: the nodes whose P has a block
-  // of a, each times its row of K P, accumulated in a dense row buffer over the coarse columns.
-  NodeAggregateBlocks KP = multiply_K<C, M>(K, graph, P, aggregates);
+// The coarse matrix in compressed-column arrays (symmetric, rows sorted in each column).
+struct CoarseMatrix {
+  std::vector<int> outer, inner;
+  std::vector<double> values;
+};
+
+// The coarse matrix P^T (K P), one block row per aggregate a: the nodes whose P has a block
+// of a, each times its row of K P, accumulated in a dense row buffer over the coarse columns.
+template <int C, int M>
+CoarseMatrix coarse_matrix(const SparseMatrix& K, const NodeGraph& graph,
+                           const NodeAggregateBlocks& P, const std::vector<int>& rank,
+                           std::size_t aggregates) {
+  const std::size_t n = graph.start.size() - 1;
+  constexpr auto c = static_cast<std::size_t>(C);
+  const std::size_t coarse_n = aggregates * M;
+  const NodeAggregateBlocks KP = multiply_K<C, M>(K, graph, P, aggregates);
   std::vector<std::size_t> by_aggregate_start(aggregates + 1, 0);
   for (const std::int32_t a : P.aggregate) ++by_aggregate_start[static_cast<std::size_t>(a) + 1];
   for (std::size_t a = 0; a < aggregates; ++a) by_aggregate_start[a + 1] += by_aggregate_start[a];
@@ -352,71 +376,73 @@ LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, con
         by_aggregate[fill[static_cast<std::size_t>(P.aggregate[bb])]++] = {
             static_cast<std::uint32_t>(i), bb};
   }
-  std::vector<int> kc_outer(coarse_n + 1, 0), kc_inner;
-  std::vector<double> kc_values;
-  {
-    std::vector<double> row(M * coarse_n, 0.0);
-    std::vector<char> seen(aggregates, 0);
-    std::vector<std::int32_t> touched;
-    for (std::size_t a = 0; a < aggregates; ++a) {
-      touched.clear();
-      for (std::size_t q = by_aggregate_start[a]; q < by_aggregate_start[a + 1]; ++q) {
-        const std::size_t i = by_aggregate[q].first;
-        const double* Pa = &P.value[by_aggregate[q].second * C * M];
-        for (std::size_t kb = KP.start[i]; kb < KP.start[i + 1]; ++kb) {
-          const auto b = static_cast<std::size_t>(KP.aggregate[kb]);
-          if (!seen[b]) {
-            seen[b] = 1;
-            touched.push_back(KP.aggregate[kb]);
-          }
-          const double* KPb = &KP.value[kb * C * M];
-          for (std::size_t k = 0; k < M; ++k) {
-            double* out = &row[k * coarse_n + b * M];
-            for (std::size_t k2 = 0; k2 < M; ++k2) {
-              double s = 0.0;
-              for (std::size_t j = 0; j < c; ++j) s += Pa[j * M + k] * KPb[j * M + k2];
-              out[k2] += s;
-            }
-          }
+  CoarseMatrix kc;
+  kc.outer.assign(coarse_n + 1, 0);
+  std::vector<double> row(M * coarse_n, 0.0);
+  std::vector<char> seen(aggregates, 0);
+  std::vector<std::int32_t> touched;
+  for (std::size_t a = 0; a < aggregates; ++a) {
+    touched.clear();
+    for (std::size_t q = by_aggregate_start[a]; q < by_aggregate_start[a + 1]; ++q) {
+      const std::size_t i = by_aggregate[q].first;
+      const double* Pa = &P.value[by_aggregate[q].second * C * M];
+      for (std::size_t kb = KP.start[i]; kb < KP.start[i + 1]; ++kb) {
+        const auto b = static_cast<std::size_t>(KP.aggregate[kb]);
+        if (!seen[b]) {
+          seen[b] = 1;
+          touched.push_back(KP.aggregate[kb]);
         }
-      }
-      std::sort(touched.begin(), touched.end());
-      // Columns a M + k of the (symmetric) coarse matrix, rows sorted. A mode the QR dropped
-      // (k >= rank[a]) has a zero column in P, hence a zero row and column here: its diagonal
-      // is set to 1 so that the matrix stays definite (its coarse unknown stays 0).
-      for (std::size_t k = 0; k < M; ++k) {
-        for (const std::int32_t b : touched) {
-          const std::size_t col0 = static_cast<std::size_t>(b) * M;
-          double* in = &row[k * coarse_n + col0];
+        const double* KPb = &KP.value[kb * C * M];
+        for (std::size_t k = 0; k < M; ++k) {
+          double* out = &row[k * coarse_n + b * M];
           for (std::size_t k2 = 0; k2 < M; ++k2) {
-            const bool dropped = static_cast<std::size_t>(b) == a && k2 == k &&
-                                 k >= static_cast<std::size_t>(rank[a]);
-            kc_inner.push_back(static_cast<int>(col0 + k2));
-            kc_values.push_back(dropped ? 1.0 : in[k2]);
-            in[k2] = 0.0;
+            double s = 0.0;
+            for (std::size_t j = 0; j < c; ++j) s += Pa[j * M + k] * KPb[j * M + k2];
+            out[k2] += s;
           }
         }
-        kc_outer[a * M + k + 1] = static_cast<int>(kc_inner.size());
       }
-      for (const std::int32_t b : touched) seen[static_cast<std::size_t>(b)] = 0;
     }
+    std::sort(touched.begin(), touched.end());
+    // Columns a M + k of the (symmetric) coarse matrix, rows sorted. A mode the QR dropped
+    // (k >= rank[a]) has a zero column in P, hence a zero row and column here: its diagonal
+    // is set to 1 so that the matrix stays definite (its coarse unknown stays 0).
+    for (std::size_t k = 0; k < M; ++k) {
+      for (const std::int32_t b : touched) {
+        const std::size_t col0 = static_cast<std::size_t>(b) * M;
+        double* in = &row[k * coarse_n + col0];
+        for (std::size_t k2 = 0; k2 < M; ++k2) {
+          const bool dropped =
+              static_cast<std::size_t>(b) == a && k2 == k && k >= static_cast<std::size_t>(rank[a]);
+          kc.inner.push_back(static_cast<int>(col0 + k2));
+          kc.values.push_back(dropped ? 1.0 : in[k2]);
+          in[k2] = 0.0;
+        }
+      }
+      kc.outer[a * M + k + 1] = static_cast<int>(kc.inner.size());
+    }
+    for (const std::int32_t b : touched) seen[static_cast<std::size_t>(b)] = 0;
   }
-  const auto coarse_dim = static_cast<Eigen::Index>(coarse_n);
-  const SparseMatrix Kc = Eigen::Map<const SparseMatrix>(
-      coarse_dim, coarse_dim, static_cast<Eigen::Index>(kc_values.size()), kc_outer.data(),
-      kc_inner.data(), kc_values.data());
-  Eigen::SimplicialLLT<SparseMatrix> coarse(Kc);
-  // Only P's pattern and its single-precision values are used from here on.
-  KP = NodeAggregateBlocks{};
-  std::vector<double>().swap(P.value);
-  if (coarse.info() != Eigen::Success) {
-    throw Error("physics: singular system: the coarse matrix is not positive definite");
-  }
-  // Every vector is allocated once: a 60k-unknown vector is 0.5 MB, which glibc maps and
-  // unmaps (page faults included) on each temporary.
-  Eigen::VectorXd coarse_r(coarse_dim), coarse_x(coarse_dim);
-  // Returns res . out (fused into the last pass, like the CG's other dot products).
-  auto precondition = [&](const Eigen::VectorXd& res, Eigen::VectorXd& out) {
+  return kc;
+}
+
+// The preconditioner M^-1 r = D^-1 r + P (P^T K P)^-1 P^T r, from P's pattern, its
+// single-precision values and the coarse matrix's Cholesky factor.
+template <int C, int M>
+struct TwoLevelPreconditioner {
+  const NodeAggregateBlocks& P;  // its pattern (start, aggregate)
+  const std::vector<float>& P_single;
+  const Eigen::VectorXd& inv_diag;
+  const Eigen::SimplicialLLT<SparseMatrix>& coarse;
+  // Allocated once: a 60k-unknown vector is 0.5 MB, which glibc maps and unmaps (page faults
+  // included) on each temporary.
+  Eigen::VectorXd coarse_r, coarse_x;
+
+  // out = M^-1 res; returns res . out (fused into the last pass, like the CG's other dot
+  // products).
+  double operator()(const Eigen::VectorXd& res, Eigen::VectorXd& out) {
+    const std::size_t n = P.start.size() - 1;
+    constexpr auto c = static_cast<std::size_t>(C);
     // coarse_r = P^T res (a scatter into the small coarse vector), out = D^-1 res + P coarse_x;
     // the blocks of a node are consecutive in P_single.
     coarse_r.setZero();
@@ -447,10 +473,15 @@ LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, con
       }
     }
     return dot;
-  };
-  // Preconditioned CG (the textbook loop; Eigen's needs a preconditioner class), its vector
-  // updates and dot products fused into as few passes as the recurrences allow.
-  LinearSolveResult result;
+  }
+};
+
+// Preconditioned CG (the textbook loop; Eigen's needs a preconditioner class), its vector
+// updates and dot products fused into as few passes as the recurrences allow. Sets the result's
+// x and iterations.
+template <int C, class Precondition>
+void conjugate_gradient(const SymmetricNodeBlocks<C>& Kb, const Eigen::VectorXd& f,
+                        double tolerance, Precondition& precondition, LinearSolveResult& result) {
   Eigen::VectorXd x = Eigen::VectorXd::Zero(f.size());
   Eigen::VectorXd r = f;
   Eigen::VectorXd z(f.size()), q(f.size());
@@ -484,6 +515,38 @@ LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, con
   }
   result.x = std::move(x);
   result.iterations = it;
+}
+
+template <int C, int M>
+LinearSolveResult two_level(const SparseMatrix& K, const Eigen::VectorXd& f, const NodeGraph& graph,
+                            const std::vector<double>& nodes, double tolerance) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = graph.start.size() - 1;
+  std::vector<std::int32_t> label;
+  const std::size_t aggregates = aggregate_nodes(nodes, n, label);
+  std::vector<int> rank;
+  NodeAggregateBlocks T = tentative_prolongator<C, M>(nodes, label, aggregates, rank);
+  const SymmetricNodeBlocks<C> Kb(K, graph);
+  const Eigen::VectorXd inv_diag = K.diagonal().cwiseInverse();
+  std::vector<float> P_single;
+  NodeAggregateBlocks P =
+      smoothed_prolongator<C, M>(K, graph, Kb, inv_diag, label, T, aggregates, P_single);
+  T = NodeAggregateBlocks{};
+  CoarseMatrix kc = coarse_matrix<C, M>(K, graph, P, rank, aggregates);
+  const auto coarse_dim = static_cast<Eigen::Index>(aggregates * M);
+  const SparseMatrix Kc = Eigen::Map<const SparseMatrix>(
+      coarse_dim, coarse_dim, static_cast<Eigen::Index>(kc.values.size()), kc.outer.data(),
+      kc.inner.data(), kc.values.data());
+  Eigen::SimplicialLLT<SparseMatrix> coarse(Kc);
+  // Only P's pattern and its single-precision values are used from here on.
+  std::vector<double>().swap(P.value);
+  if (coarse.info() != Eigen::Success) {
+    throw Error("physics: singular system: the coarse matrix is not positive definite");
+  }
+  TwoLevelPreconditioner<C, M> precondition{
+      P, P_single, inv_diag, coarse, Eigen::VectorXd(coarse_dim), Eigen::VectorXd(coarse_dim)};
+  LinearSolveResult result;
+  conjugate_gradient(Kb, f, tolerance, precondition, result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

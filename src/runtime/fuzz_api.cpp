@@ -13,6 +13,7 @@
 // fuzz_open_eval, so mutations reach the index checks and the decoders.
 //
 // Build and run: scripts/fuzz.sh [SECONDS] (seeds: conformance/cases/*/*/asset.cadi).
+// One file past 800 lines: a libFuzzer target is one program, its checks one contract.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <xxhash.h>
 
@@ -276,6 +277,57 @@ struct MeshCopy {
   std::vector<std::vector<float>> fields;
 };
 
+// What the calls at one point share: the point, the element locate found, the base status (eval
+// without fields) that every other call must agree with, and the field status the first call
+// that reads fields decided.
+struct PointCalls {
+  PointCalls(const Script& script, cadinterp_workspace* w, const double* at)
+      : s(script), ws(w), x(at) {}
+
+  const Script& s;
+  cadinterp_workspace* ws;
+  const double* x;
+  bool inside = true;
+  int element = -7, feasible = -7;
+  cadinterp_status base = CADINTERP_OK;
+  bool base_overflowed = false;
+  std::uint32_t V = 0;
+  std::vector<float> base_positions;
+  bool args_ok = false;
+  int nf = 0;                      // fields asked, when the arguments are valid
+  std::vector<std::size_t> sizes;  // values per asked field, when the base eval succeeded
+  const int* fields = nullptr;
+  int count = 0;
+  // Field arrays are decoded by the first call that reads them, apart from the shape, and a
+  // failed decode keeps nothing: so every call that reads fields must report the same status
+  // (OK or the decode error), and every call that does not must report the base status.
+  bool field_status_known = false;
+  cadinterp_status field_status = CADINTERP_OK;
+
+  // A result that overflows single precision is refused per call (grad can overflow where eval
+  // does not), so it is exempt from agreement; it must name itself.
+  bool overflowed(cadinterp_status st) const {
+    return st == CADINTERP_E_CORRUPT_BLOB &&
+           std::strstr(cadinterp_workspace_error(ws), "not finite") != nullptr;
+  }
+  void check_status(cadinterp_status got, bool reads_fields, const char* call) {
+    if (args_ok && (overflowed(got) || (base_overflowed && got == CADINTERP_OK))) return;
+    if (!args_ok) {
+      CHECK(got == CADINTERP_E_INVALID_ARGUMENT, "%s with invalid fields: %s", call, name(got));
+    } else if (base != CADINTERP_OK || !reads_fields) {
+      CHECK(got == base, "%s: %s, eval without fields %s", call, name(got), name(base));
+    } else if (!field_status_known) {
+      CHECK(got == CADINTERP_OK || got == CADINTERP_E_CHECKSUM || got == CADINTERP_E_CORRUPT_BLOB,
+            "%s reading fields: %s (%s)", call, name(got), cadinterp_workspace_error(ws));
+      field_status_known = true;
+      field_status = got;
+    } else {
+      CHECK(got == field_status, "%s reading fields: %s, an earlier call %s", call, name(got),
+            name(field_status));
+    }
+  }
+};
+
 class Run {
  public:
   Run(cadinterp_asset* a, const cadinterp::fb::Asset* index) : a_(a), index_(index) {}
@@ -300,6 +352,13 @@ class Run {
     return true;
   }
   void point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCopy& keep);
+  void locate(PointCalls& c);
+  void base_eval(PointCalls& c);
+  void eval_subset(const PointCalls& c);
+  void grad(PointCalls& c);
+  void vjp(PointCalls& c);
+  void properties(const PointCalls& c);
+  void eval_fields(PointCalls& c, MeshCopy& keep);
   void check_mesh(const cadinterp_mesh& m, int element, const Script& s, int nf);
   void check_failure(cadinterp_workspace* ws, cadinterp_status st, const char* call);
 
@@ -468,214 +527,193 @@ void check_still_valid(const MeshCopy& c) {
           "an earlier eval's field changed under another workspace's calls");
 }
 
-void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCopy& keep) {
-  const double* x = s.points[p].data();
-  bool inside = true;
-  for (int d = 0; d < K_; ++d)
-    inside = inside && x[d] >= box_.lo[static_cast<std::size_t>(d)] &&
-             x[d] <= box_.hi[static_cast<std::size_t>(d)];
-
-  // locate and error_estimate: status decided by the box alone.
-  int element = -7, feasible = -7;
-  cadinterp_status st = cadinterp_locate(a_, x, &element, &feasible);
-  CHECK(st == (inside ? CADINTERP_OK : CADINTERP_E_OUTSIDE_DOMAIN), "locate: %s, inside %d",
-        name(st), inside);
+// locate and error_estimate: status decided by the box alone.
+void Run::locate(PointCalls& c) {
+  const double* x = c.x;
+  cadinterp_status st = cadinterp_locate(a_, x, &c.element, &c.feasible);
+  CHECK(st == (c.inside ? CADINTERP_OK : CADINTERP_E_OUTSIDE_DOMAIN), "locate: %s, inside %d",
+        name(st), c.inside);
   if (st == CADINTERP_OK) {
-    CHECK(element >= 0 && element < elements_ && (feasible == 0 || feasible == 1),
-          "locate: element %d of %d, feasible %d", element, elements_, feasible);
+    CHECK(c.element >= 0 && c.element < elements_ && (c.feasible == 0 || c.feasible == 1),
+          "locate: element %d of %d, feasible %d", c.element, elements_, c.feasible);
     const auto* flags = index_->basis()->elem_feasible();
-    CHECK(
-        flags && (flags->Get(static_cast<flatbuffers::uoffset_t>(element)) != 0) == (feasible != 0),
-        "locate: feasible flag disagrees with the index");
+    CHECK(flags && (flags->Get(static_cast<flatbuffers::uoffset_t>(c.element)) != 0) ==
+                       (c.feasible != 0),
+          "locate: feasible flag disagrees with the index");
     int again = -7;
-    CHECK(cadinterp_locate(a_, x, &again, nullptr) == CADINTERP_OK && again == element,
+    CHECK(cadinterp_locate(a_, x, &again, nullptr) == CADINTERP_OK && again == c.element,
           "locate without feasible");
   } else {
-    CHECK(element == -7 && feasible == -7, "locate wrote its outputs on failure");
+    CHECK(c.element == -7 && c.feasible == -7, "locate wrote its outputs on failure");
   }
   double err = -7.5;
   const cadinterp_status st_err = cadinterp_error_estimate(a_, x, &err);
   CHECK(st_err == st, "error_estimate: %s, locate %s", name(st_err), name(st));
   if (st_err == CADINTERP_OK) {
     const double stored =
-        index_->elements()->Get(static_cast<flatbuffers::uoffset_t>(element))->error_estimate();
+        index_->elements()->Get(static_cast<flatbuffers::uoffset_t>(c.element))->error_estimate();
     CHECK(std::isfinite(err) && (err == stored || (std::isnan(err) && std::isnan(stored))),
           "error_estimate %g, index %g", err, stored);
   } else {
     CHECK(err == -7.5, "error_estimate wrote its output on failure");
   }
+}
 
-  // eval without fields: the base status every other evaluation must agree with.
+// eval without fields: the base status every other evaluation must agree with. Also sizes the
+// asked fields from its mesh.
+void Run::base_eval(PointCalls& c) {
   cadinterp_mesh m;
   poison(&m);
-  const cadinterp_status base = cadinterp_eval(ws, x, nullptr, 0, &m);
-  if (!inside) {
-    CHECK(base == CADINTERP_E_OUTSIDE_DOMAIN, "eval outside the box: %s", name(base));
-  } else if (!feasible) {
-    CHECK(base == CADINTERP_E_INFEASIBLE, "eval in an infeasible element: %s", name(base));
+  c.base = cadinterp_eval(c.ws, c.x, nullptr, 0, &m);
+  if (!c.inside) {
+    CHECK(c.base == CADINTERP_E_OUTSIDE_DOMAIN, "eval outside the box: %s", name(c.base));
+  } else if (!c.feasible) {
+    CHECK(c.base == CADINTERP_E_INFEASIBLE, "eval in an infeasible element: %s", name(c.base));
   } else {
-    CHECK(base == CADINTERP_OK || base == CADINTERP_E_CHECKSUM || base == CADINTERP_E_CORRUPT_BLOB,
-          "eval in a feasible element: %s (%s)", name(base), cadinterp_workspace_error(ws));
+    CHECK(c.base == CADINTERP_OK || c.base == CADINTERP_E_CHECKSUM ||
+              c.base == CADINTERP_E_CORRUPT_BLOB,
+          "eval in a feasible element: %s (%s)", name(c.base), cadinterp_workspace_error(c.ws));
   }
-  std::vector<float> base_positions;
-  std::uint32_t V = 0;
-  if (base == CADINTERP_OK) {
-    check_mesh(m, element, s, 0);
-    V = m.vertex_count;
-    base_positions.assign(m.positions, m.positions + std::size_t(V) * 3);
+  if (c.base == CADINTERP_OK) {
+    check_mesh(m, c.element, c.s, 0);
+    c.V = m.vertex_count;
+    c.base_positions.assign(m.positions, m.positions + std::size_t(c.V) * 3);
   } else {
-    check_failure(ws, base, "eval");
+    check_failure(c.ws, c.base, "eval");
     CHECK(poisoned(&m), "eval wrote its output on failure");
   }
-  const bool args_ok = fields_valid(s);
-  const int nf = args_ok ? s.field_count : 0;
-  std::vector<std::size_t> sizes(static_cast<std::size_t>(nf));
-  if (base == CADINTERP_OK)
-    for (int i = 0; i < nf; ++i)
-      sizes[static_cast<std::size_t>(i)] = field_values(s.fields[static_cast<std::size_t>(i)], m);
-  const int* fields = s.fields.empty() ? nullptr : s.fields.data();
-  const int count = s.field_count;
+  c.args_ok = fields_valid(c.s);
+  c.nf = c.args_ok ? c.s.field_count : 0;
+  c.sizes.assign(static_cast<std::size_t>(c.nf), 0);
+  if (c.base == CADINTERP_OK)
+    for (int i = 0; i < c.nf; ++i)
+      c.sizes[static_cast<std::size_t>(i)] =
+          field_values(c.s.fields[static_cast<std::size_t>(i)], m);
+  c.fields = c.s.fields.empty() ? nullptr : c.s.fields.data();
+  c.count = c.s.field_count;
+}
 
-  // eval_subset without fields: rows of the asked vertices are the full eval's rows up to float
-  // rounding (same weights and term order; the full eval's vector kernel may fuse multiply-adds
-  // where the row kernel does not); an id past #V is refused with the output untouched.
-  if (base == CADINTERP_OK && V > 0) {
-    float scale = 1.0f;
-    for (float p : base_positions) scale = std::max(scale, std::fabs(p));
-    const std::uint32_t ids[4] = {V - 1, 0, V / 2, V - 1};
-    cadinterp_mesh sub;
-    poison(&sub);
-    cadinterp_status st = cadinterp_eval_subset(ws, x, ids, 4, nullptr, 0, nullptr, 0, &sub);
-    if (st == CADINTERP_OK) {
-      CHECK(sub.vertex_count == V, "eval_subset: #V %u, eval %u", sub.vertex_count, V);
-      for (int i = 0; i < 4; ++i)
-        for (int k = 0; k < 3; ++k) {
-          const float got = sub.positions[3 * i + k];
-          const float want = base_positions[3 * std::size_t(ids[i]) + std::size_t(k)];
-          CHECK(std::fabs(got - want) <= 1e-4f * scale,
-                "eval_subset row %d (vertex %u) %g, eval %g", i, ids[i], double(got), double(want));
-        }
-    } else {
-      CHECK(st == CADINTERP_E_CHECKSUM || st == CADINTERP_E_CORRUPT_BLOB,
-            "eval_subset after a successful eval: %s", name(st));
-      check_failure(ws, st, "eval_subset");
-      CHECK(poisoned(&sub), "eval_subset wrote its output on failure");
-    }
-    const std::uint32_t past = V;
-    poison(&sub);
-    st = cadinterp_eval_subset(ws, x, &past, 1, nullptr, 0, nullptr, 0, &sub);
-    CHECK(st == CADINTERP_E_INVALID_ARGUMENT || st == CADINTERP_E_CHECKSUM ||
-              st == CADINTERP_E_CORRUPT_BLOB,
-          "eval_subset with vertex #V: %s", name(st));
+// eval_subset without fields: rows of the asked vertices are the full eval's rows up to float
+// rounding (same weights and term order; the full eval's vector kernel may fuse multiply-adds
+// where the row kernel does not); an id past #V is refused with the output untouched.
+void Run::eval_subset(const PointCalls& c) {
+  const std::uint32_t V = c.V;
+  float scale = 1.0f;
+  for (float p : c.base_positions) scale = std::max(scale, std::fabs(p));
+  const std::uint32_t ids[4] = {V - 1, 0, V / 2, V - 1};
+  cadinterp_mesh sub;
+  poison(&sub);
+  cadinterp_status st = cadinterp_eval_subset(c.ws, c.x, ids, 4, nullptr, 0, nullptr, 0, &sub);
+  if (st == CADINTERP_OK) {
+    CHECK(sub.vertex_count == V, "eval_subset: #V %u, eval %u", sub.vertex_count, V);
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const float got = sub.positions[3 * i + k];
+        const float want = c.base_positions[3 * std::size_t(ids[i]) + std::size_t(k)];
+        CHECK(std::fabs(got - want) <= 1e-4f * scale, "eval_subset row %d (vertex %u) %g, eval %g",
+              i, ids[i], double(got), double(want));
+      }
+  } else {
+    CHECK(st == CADINTERP_E_CHECKSUM || st == CADINTERP_E_CORRUPT_BLOB,
+          "eval_subset after a successful eval: %s", name(st));
+    check_failure(c.ws, st, "eval_subset");
     CHECK(poisoned(&sub), "eval_subset wrote its output on failure");
   }
+  const std::uint32_t past = V;
+  poison(&sub);
+  st = cadinterp_eval_subset(c.ws, c.x, &past, 1, nullptr, 0, nullptr, 0, &sub);
+  CHECK(st == CADINTERP_E_INVALID_ARGUMENT || st == CADINTERP_E_CHECKSUM ||
+            st == CADINTERP_E_CORRUPT_BLOB,
+        "eval_subset with vertex #V: %s", name(st));
+  CHECK(poisoned(&sub), "eval_subset wrote its output on failure");
+}
 
-  // Field arrays are decoded by the first call that reads them, apart from the shape, and a
-  // failed decode keeps nothing: so every call that reads fields must report the same status
-  // (OK or the decode error), and every call that does not must report the base status.
-  bool field_status_known = false;
-  cadinterp_status field_status = CADINTERP_OK;
-  // A result that overflows single precision is refused per call (grad can overflow where eval
-  // does not), so it is exempt from agreement; it must name itself.
-  auto overflowed = [&](cadinterp_status st) {
-    return st == CADINTERP_E_CORRUPT_BLOB &&
-           std::strstr(cadinterp_workspace_error(ws), "not finite") != nullptr;
-  };
-  const bool base_overflowed = overflowed(base);
-  auto check_status = [&](cadinterp_status got, bool reads_fields, const char* call) {
-    if (args_ok && (overflowed(got) || (base_overflowed && got == CADINTERP_OK))) return;
-    if (!args_ok) {
-      CHECK(got == CADINTERP_E_INVALID_ARGUMENT, "%s with invalid fields: %s", call, name(got));
-    } else if (base != CADINTERP_OK || !reads_fields) {
-      CHECK(got == base, "%s: %s, eval without fields %s", call, name(got), name(base));
-    } else if (!field_status_known) {
-      CHECK(got == CADINTERP_OK || got == CADINTERP_E_CHECKSUM || got == CADINTERP_E_CORRUPT_BLOB,
-            "%s reading fields: %s (%s)", call, name(got), cadinterp_workspace_error(ws));
-      field_status_known = true;
-      field_status = got;
-    } else {
-      CHECK(got == field_status, "%s reading fields: %s, an earlier call %s", call, name(got),
-            name(field_status));
-    }
-  };
-
-  // grad
+void Run::grad(PointCalls& c) {
   cadinterp_mesh_grad g;
   poison(&g);
-  st = cadinterp_grad(ws, x, fields, count, &g);
-  check_status(st, nf > 0, "grad");
+  const cadinterp_status st = cadinterp_grad(c.ws, c.x, c.fields, c.count, &g);
+  c.check_status(st, c.nf > 0, "grad");
   if (st == CADINTERP_OK) {
-    CHECK(g.element == element && g.vertex_count == V, "grad: element %d / %u vertices", g.element,
-          g.vertex_count);
+    const std::uint32_t V = c.V;
+    CHECK(g.element == c.element && g.vertex_count == V, "grad: element %d / %u vertices",
+          g.element, g.vertex_count);
     check_finite(g.positions, std::size_t(V) * 3, "grad positions");
     check_finite(g.dpositions, std::size_t(K_) * V * 3, "dpositions");
-    CHECK(nf == 0 || g.dfields, "grad: NULL dfields");
-    for (int i = 0; i < nf; ++i)
-      check_finite(g.dfields[i], std::size_t(K_) * sizes[static_cast<std::size_t>(i)], "dfields");
+    CHECK(c.nf == 0 || g.dfields, "grad: NULL dfields");
+    for (int i = 0; i < c.nf; ++i)
+      check_finite(g.dfields[i], std::size_t(K_) * c.sizes[static_cast<std::size_t>(i)], "dfields");
   } else {
-    check_failure(ws, st, "grad");
+    check_failure(c.ws, st, "grad");
     CHECK(poisoned(&g), "grad wrote its output on failure");
   }
+}
 
-  // vjp: adjoints sized exactly, so an over-read is an ASan report.
+// vjp: adjoints sized exactly, so an over-read is an ASan report.
+void Run::vjp(PointCalls& c) {
+  const Script& s = c.s;
+  const int nf = c.nf;
   std::vector<float> adj_p;
   std::vector<std::vector<float>> adj_f(static_cast<std::size_t>(nf));
   std::vector<const float*> adj_ptrs(static_cast<std::size_t>(nf), nullptr);
-  if (base == CADINTERP_OK) {
+  if (c.base == CADINTERP_OK) {
     if (s.adjoint_kind != 1) {
-      adj_p.resize(std::size_t(V) * 3);
+      adj_p.resize(std::size_t(c.V) * 3);
       for (std::size_t i = 0; i < adj_p.size(); ++i)
         adj_p[i] = s.adjoint_kind == 2 ? (i % 2 ? -1.f : 1.f) : 1.f / static_cast<float>(1 + i % 7);
     }
     for (int i = 0; i < nf; ++i) {
       if (s.adjoint_kind == 3 && i % 2) continue;
-      adj_f[static_cast<std::size_t>(i)].assign(sizes[static_cast<std::size_t>(i)], 0.5f);
+      adj_f[static_cast<std::size_t>(i)].assign(c.sizes[static_cast<std::size_t>(i)], 0.5f);
       adj_ptrs[static_cast<std::size_t>(i)] = adj_f[static_cast<std::size_t>(i)].data();
     }
   }
   std::vector<double> dfdx(static_cast<std::size_t>(K_), -7.5);
   const bool field_adjoints = s.adjoint_kind != 0 && nf > 0;
-  st = cadinterp_vjp(ws, x, adj_p.empty() ? nullptr : adj_p.data(), fields,
-                     field_adjoints ? adj_ptrs.data() : nullptr, count, dfdx.data());
-  check_status(st, field_adjoints, "vjp");
+  const cadinterp_status st =
+      cadinterp_vjp(c.ws, c.x, adj_p.empty() ? nullptr : adj_p.data(), c.fields,
+                    field_adjoints ? adj_ptrs.data() : nullptr, c.count, dfdx.data());
+  c.check_status(st, field_adjoints, "vjp");
   if (st == CADINTERP_OK) {
     for (int k = 0; k < K_; ++k)
       CHECK(std::isfinite(dfdx[static_cast<std::size_t>(k)]) || !g_check_values,
             "vjp: dF/dx[%d] = %g", k, dfdx[static_cast<std::size_t>(k)]);
   } else {
-    check_failure(ws, st, "vjp");
+    check_failure(c.ws, st, "vjp");
     for (double v : dfdx) CHECK(v == -7.5, "vjp wrote its output on failure");
   }
+}
 
-  // properties_eval, with and without gradients.
+// properties_eval, with and without gradients.
+void Run::properties(const PointCalls& c) {
+  const Script& s = c.s;
   cadinterp_properties props;
   poison(&props);
   std::vector<cadinterp_properties> pgrad(static_cast<std::size_t>(K_));
   for (auto& pg : pgrad) poison(&pg);
-  st = cadinterp_properties_eval(ws, x, s.density, s.direction, &props,
-                                 s.property_grads ? pgrad.data() : nullptr);
+  const cadinterp_status st = cadinterp_properties_eval(c.ws, c.x, s.density, s.direction, &props,
+                                                        s.property_grads ? pgrad.data() : nullptr);
   // A non-finite density or direction is the caller's invalid argument.
   bool properties_args_ok = std::isfinite(s.density);
-  for (double c : s.direction) properties_args_ok = properties_args_ok && std::isfinite(c);
+  for (double d : s.direction) properties_args_ok = properties_args_ok && std::isfinite(d);
   // Mass properties may overflow where the mesh does not (a huge density, or gradients over a
   // tiny parameter range): that refusal names itself.
-  CHECK(st == (properties_args_ok ? base : CADINTERP_E_INVALID_ARGUMENT) ||
-            (properties_args_ok && base == CADINTERP_OK && overflowed(st)),
-        "properties_eval: %s, eval %s", name(st), name(base));
+  CHECK(st == (properties_args_ok ? c.base : CADINTERP_E_INVALID_ARGUMENT) ||
+            (properties_args_ok && c.base == CADINTERP_OK && c.overflowed(st)),
+        "properties_eval: %s, eval %s", name(st), name(c.base));
   if (st == CADINTERP_OK) {
     // With a moderate density and direction, volume, mass and areas are sums of products of
     // finite floats in double: finite. Centroid and inertia divide by the volume (NaN when it
     // is 0, documented); they may be NaN but never infinite.
     bool moderate = std::fabs(s.density) <= 1e6;
-    for (double c : s.direction) moderate = moderate && std::isfinite(c) && std::fabs(c) <= 10;
+    for (double d : s.direction) moderate = moderate && std::isfinite(d) && std::fabs(d) <= 10;
     if (moderate && g_check_values) {
       CHECK(std::isfinite(props.volume) && std::isfinite(props.mass) && std::isfinite(props.area) &&
                 std::isfinite(props.frontal_area),
             "properties: volume %g mass %g area %g frontal %g", props.volume, props.mass,
             props.area, props.frontal_area);
       CHECK(props.area >= 0 && props.frontal_area >= 0, "properties: negative area");
-      for (double c : props.centroid) CHECK(!std::isinf(c), "properties: infinite centroid");
-      for (double c : props.inertia) CHECK(!std::isinf(c), "properties: infinite inertia");
+      for (double v : props.centroid) CHECK(!std::isinf(v), "properties: infinite centroid");
+      for (double v : props.inertia) CHECK(!std::isinf(v), "properties: infinite inertia");
       for (int k = 0; s.property_grads && k < K_; ++k) {
         const cadinterp_properties& pg = pgrad[static_cast<std::size_t>(k)];
         CHECK(std::isfinite(pg.volume) && std::isfinite(pg.mass) && std::isfinite(pg.area) &&
@@ -685,27 +723,46 @@ void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCop
       }
     }
   } else {
-    check_failure(ws, st, "properties_eval");
+    check_failure(c.ws, st, "properties_eval");
     CHECK(poisoned(&props), "properties_eval wrote its output on failure");
     for (const auto& pg : pgrad) CHECK(poisoned(&pg), "properties_eval wrote its gradient");
   }
+}
 
-  // eval with the field subset last, so its mesh is what the workspace holds when the other
-  // workspace runs the next point.
+// eval with the field subset last, so its mesh is what the workspace holds when the other
+// workspace runs the next point; `keep` copies it for check_still_valid.
+void Run::eval_fields(PointCalls& c, MeshCopy& keep) {
+  cadinterp_mesh m;
   poison(&m);
-  st = cadinterp_eval(ws, x, fields, count, &m);
-  check_status(st, nf > 0, "eval with fields");
+  const cadinterp_status st = cadinterp_eval(c.ws, c.x, c.fields, c.count, &m);
+  c.check_status(st, c.nf > 0, "eval with fields");
   keep = MeshCopy();
   if (st == CADINTERP_OK) {
-    check_mesh(m, element, s, nf);
+    check_mesh(m, c.element, c.s, c.nf);
     // Same x, same element, decoded again if the cache dropped it: the same bits.
-    CHECK(std::memcmp(base_positions.data(), m.positions, base_positions.size() * 4) == 0,
+    CHECK(std::memcmp(c.base_positions.data(), m.positions, c.base_positions.size() * 4) == 0,
           "eval is not deterministic across field subsets or cache evictions");
-    keep = copy_mesh(m, sizes);
+    keep = copy_mesh(m, c.sizes);
   } else {
-    check_failure(ws, st, "eval with fields");
+    check_failure(c.ws, st, "eval with fields");
     CHECK(poisoned(&m), "eval wrote its output on failure");
   }
+}
+
+// Every entry point at point p of the script, on workspace ws.
+void Run::point(const Script& s, std::size_t p, cadinterp_workspace* ws, MeshCopy& keep) {
+  PointCalls c(s, ws, s.points[p].data());
+  for (int d = 0; d < K_; ++d)
+    c.inside = c.inside && c.x[d] >= box_.lo[static_cast<std::size_t>(d)] &&
+               c.x[d] <= box_.hi[static_cast<std::size_t>(d)];
+  locate(c);
+  base_eval(c);
+  if (c.base == CADINTERP_OK && c.V > 0) eval_subset(c);
+  c.base_overflowed = c.overflowed(c.base);
+  grad(c);
+  vjp(c);
+  properties(c);
+  eval_fields(c, keep);
 }
 
 void Run::points(const Script& s) {

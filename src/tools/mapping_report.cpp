@@ -12,6 +12,8 @@
 //          accuracy against the host.
 //   sweep  builds an asset with the mesh mapper and writes a VTU sequence sweeping one
 //          parameter across the box (others at the centre), to watch for flicker or jumps.
+//
+// One file past 800 lines: one measurement program whose subcommands share the host loading.
 #include <dlfcn.h>
 
 #include <algorithm>
@@ -30,8 +32,6 @@
 #include "analytic_host.h"
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
-#include "mesh/host_call.h"
-#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "mapping/boundary_untangle.h"
@@ -40,6 +40,8 @@
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
 #include "mapping/mesh_mapper.h"
+#include "mesh/host_call.h"
+#include "mesh/surface_distance.h"
 #include "tools/cli_args.h"
 #include "tools/mesh_export.h"
 
@@ -105,8 +107,8 @@ double percentile(std::vector<double> v, double q) {
 class OptionsMapper final : public mesh::Mapper {
  public:
   explicit OptionsMapper(const mapping::MapOptions& options) : options_(options) {}
-  bool map(const mesh::Sample& source, const mesh::Sample& canonical,
-           mesh::MappedSample& out, std::string& why) const override {
+  bool map(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+           std::string& why) const override {
     return mapping::map_sample(source, canonical, out, why, nullptr, options_);
   }
   const char* name() const override { return "report"; }
@@ -115,67 +117,73 @@ class OptionsMapper final : public mesh::Mapper {
   const mapping::MapOptions& options_;
 };
 
-int pairs(const std::vector<std::string>& args) {
+// The options of `pairs`, as parsed.
+struct PairsOptions {
   std::string model = "plate", options = "edge=5", library, host_options;
   int count = 40, seed = 1;
   std::string sizes = "8,5,3,2,1.5";
   bool sizes_given = false;
   mapping::MapOptions mo;
+  int only = -1;
+  double element = 0;
+  std::string box;
+  bool across = false, where = false, fem = false, same = false;
+  std::string canonical_options;
+  // The builder's defaults (cadinterp_build_options::canonical_refinement, 0.7 x its geometry
+  // tolerance), so that a pair is measured as a build would store it.
+  mapping::RefineOptions ro;
+};
+
+// Declares and parses the options of `pairs` into `o`; false when --help was printed.
+bool parse_pairs_options(const std::vector<std::string>& args, PairsOptions& o) {
+  mapping::MapOptions& mo = o.mo;
   cli::ArgParser p("cadinterp-mapping-report pairs", "",
                    "Maps random (source, canonical) sample pairs of an analytic model and prints "
                    "the quality table, then ms per mapping against the vertex count.");
-  p.option("model", 'm', "NAME", "model (analytic: plate, bracket, ...; or of --host)", &model);
-  p.option("options", 'o', "K=V,...", "the model's options", &options);
-  p.option("pairs", 'n', "N", "random pairs", &count, 1, 100000);
-  p.option("seed", 's', "N", "random seed", &seed, 0, 1 << 30);
-  int only = -1;
-  p.option("only", 0, "I", "map pair I (0-based) of the sequence only, to reproduce one", &only, 0,
-           100000);
-  double element = 0;
+  p.option("model", 'm', "NAME", "model (analytic: plate, bracket, ...; or of --host)", &o.model);
+  p.option("options", 'o', "K=V,...", "the model's options", &o.options);
+  p.option("pairs", 'n', "N", "random pairs", &o.count, 1, 100000);
+  p.option("seed", 's', "N", "random seed", &o.seed, 0, 1 << 30);
+  p.option("only", 0, "I", "map pair I (0-based) of the sequence only, to reproduce one", &o.only,
+           0, 100000);
   p.option("element", 0, "F",
            "pairs as the builder makes them: a random box of F times the domain's size in every "
            "parameter (a K-d tree element F = 2^-depth across), the canonical at its centre and "
            "the source at one of its corners (0: two independent random points)",
-           &element, 0.0, 1.0);
-  std::string box;
+           &o.element, 0.0, 1.0);
   p.option("box", 0, "LO:HI,...",
            "map every corner of this parameter box onto its centre, as the builder maps a linear "
            "element's terms (one LO:HI per parameter; -n is then 2^K and --only picks a corner, "
            "bit d set for the upper side of parameter d)",
-           &box);
-  bool across = false;
+           &o.box);
   p.flag("across", 0,
          "map only pairs across a B-rep topology change ('T' or 'E' in the topo column), drawing "
          "up to 200 x N random pairs until N are found",
-         &across);
-  bool where = false;
+         &o.across);
   p.flag("where", 0,
          "after each pair, where its Hausdorff maximum lies: the vertex, its face tag, and "
          "whether it is a source vertex far from the mapped boundary or a mapped one off the "
          "source's",
-         &where);
-  bool fem = false;
+         &o.where);
   p.flag("fem", 0,
          "compare the fields each mapping carries with the host's own simulate at the source's "
          "parameters on the mapped mesh (its boundary-condition faces found by the canonical's "
          "region tags), instead of with the closed form: per field after each pair and in the "
          "summary",
-         &fem);
-  std::string canonical_options;
+         &o.fem);
   p.option("canonical-options", 0, "STRING",
            "the model's options for the canonical sample (default: the source's), e.g. another "
            "mesh size",
-           &canonical_options);
-  bool same = false;
+           &o.canonical_options);
   p.flag("same", 0,
          "the canonical at the source's parameters: with --canonical-options, one solid meshed "
          "twice (the fields' difference then is the two meshes' alone)",
-         &same);
-  p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &sizes);
+         &o.same);
+  p.option("sizes", 0, "MM,...", "plate edge lengths for the timing table ('' for none)", &o.sizes);
   p.option("host", 0, "LIB.so",
            "a host library (its " CADINTERP_HOST_ENTRY_NAME " entry) instead of the analytic host",
-           &library);
-  p.option("host-options", 0, "STRING", "the model's options for --host", &host_options);
+           &o.library);
+  p.option("host-options", 0, "STRING", "the model's options for --host", &o.host_options);
   p.option("relax", 0, "N", "sweeps of the in-patch relaxation (0: none)", &mo.relax_iterations, 0,
            100000);
   int stiffen = 0;
@@ -209,9 +217,7 @@ int pairs(const std::vector<std::string>& args) {
   p.option("planar", 0, "0|1",
            "lay flat patches whose surface map folds into their plane (1) or not (0)", &planar, 0,
            1);
-  // The builder's defaults (cadinterp_build_options::canonical_refinement, 0.7 x its geometry
-  // tolerance), so that a pair is measured as a build would store it.
-  mapping::RefineOptions ro;
+  mapping::RefineOptions& ro = o.ro;
   p.option("refine", 0, "N",
            "rounds of canonical refinement (canonical_refine.h), as the builder does by default: "
            "boundary edges bisected where the mapped surface departs from the source's by more "
@@ -222,195 +228,222 @@ int pairs(const std::vector<std::string>& args) {
            &ro.tolerance, 1e-6, 1.0);
   p.option("refine-growth", 0, "F", "--refine adds at most F times the canonical's vertex count",
            &ro.max_growth, 0.0, 100.0);
-  if (!p.parse(args)) return 0;
+  if (!p.parse(args)) return false;
   mo.planar_patches = planar != 0;
-  const OptionsMapper with_options(mo);
   mo.foldover_free = foldover_free != 0;
   mo.stiffening = stiffen;
   mo.geodesic_paths = geodesic != 0;
-  for (const std::string& a : args) sizes_given = sizes_given || a.rfind("--sizes", 0) == 0;
+  for (const std::string& a : args) o.sizes_given = o.sizes_given || a.rfind("--sizes", 0) == 0;
+  return true;
+}
 
-  // Field truth in closed form exists for the analytic host only. Another host's own fields at
-  // the mapped points are what the transfer interpolates, so comparing with them would measure
-  // nothing: its fields are n/a unless --fem asks it to simulate on the mapped mesh itself, a
-  // truth that also holds the difference between two meshes' discretizations of the same field.
-  const bool analytic = library.empty();
-  if (!analytic) options = host_options;
-  if (!analytic && !sizes_given) sizes.clear();
-  const cadinterp_host* h =
-      analytic ? open_host(model, options) : open_library_host(library, model, options);
-  const mesh::Host host(*h);
-  const analytic_model* am = analytic ? analytic_host_model(h) : nullptr;
-  const bool other = !canonical_options.empty() && canonical_options != options;
-  const mesh::Host canonical_host(!other ? *h
-                                     : analytic
-                                         ? *open_host(model, canonical_options)
-                                         : *open_library_host(library, model, canonical_options));
-  std::vector<double> box_lo, box_hi;
-  if (!box.empty()) {
-    for (const std::string& r : cli::split_list(box)) {
-      double lo = 0, hi = 0;
-      char tail = 0;
-      if (std::sscanf(r.c_str(), "%lf:%lf%c", &lo, &hi, &tail) != 2 || !(lo <= hi))
-        throw std::runtime_error("--box: '" + r + "' is not LO:HI with LO <= HI");
-      box_lo.push_back(lo);
-      box_hi.push_back(hi);
-    }
-    if (static_cast<int>(box_lo.size()) != host.dim())
-      throw std::runtime_error("--box: " + std::to_string(box_lo.size()) + " ranges for " +
-                               std::to_string(host.dim()) + " parameters");
-    count = 1 << host.dim();
+// --box LO:HI,...: one range per parameter of a host with `dim` parameters.
+void parse_box(const std::string& box, int dim, std::vector<double>& box_lo,
+               std::vector<double>& box_hi) {
+  for (const std::string& r : cli::split_list(box)) {
+    double lo = 0, hi = 0;
+    char tail = 0;
+    if (std::sscanf(r.c_str(), "%lf:%lf%c", &lo, &hi, &tail) != 2 || !(lo <= hi))
+      throw std::runtime_error("--box: '" + r + "' is not LO:HI with LO <= HI");
+    box_lo.push_back(lo);
+    box_hi.push_back(hi);
   }
-  std::mt19937 rng(static_cast<unsigned>(seed));
-  auto random_x = [&] {
-    std::vector<double> x(static_cast<std::size_t>(host.dim()));
-    for (std::size_t d = 0; d < x.size(); ++d)
-      x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
-    return x;
-  };
-  std::printf("model %s (%s)%s%s, %d random pairs%s%s%s%s\n", model.c_str(), options.c_str(),
-              analytic ? "" : " from ", analytic ? "" : library.c_str(), count,
-              element > 0 ? " (element corner -> centre)" : "",
-              other ? ", the canonical's options (" : "", other ? canonical_options.c_str() : "",
-              other ? ")" : "");
-  if (same) std::printf("the canonical at the source's parameters\n");
-  std::printf("%5s %6s %6s %4s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "pair", "V_src", "V_can",
-              "topo", "ms", "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err",
-              "field_max", "field_p99");
+  if (static_cast<int>(box_lo.size()) != dim)
+    throw std::runtime_error("--box: " + std::to_string(box_lo.size()) + " ranges for " +
+                             std::to_string(dim) + " parameters");
+}
+
+// What `pairs` adds up over the pairs it maps, for the summary.
+struct PairTotals {
   std::vector<double> haus, haus99, area, field, field99, times, sizes_v;
   std::map<std::string, std::pair<double, std::vector<double>>> fem_by_field;  // max, p99s
   std::size_t simulated = 0;
   double min_sj = 1;
   std::size_t inverted = 0, failed = 0, differing = 0, topology = 0, edges_only = 0, infeasible = 0;
   int found = 0;
-  for (int i = 0; across && box_lo.empty() ? found < count && i < 200 * count : i < count; ++i) {
-    std::vector<double> xa = random_x(), xc = random_x();
-    if (!box_lo.empty()) {
-      for (std::size_t d = 0; d < xa.size(); ++d) {
-        xc[d] = 0.5 * (box_lo[d] + box_hi[d]);
-        xa[d] = (i >> d) & 1 ? box_hi[d] : box_lo[d];
-      }
-    } else if (element > 0) {
-      // xa picks the box's position, xc's coordinates the corner (below or above the centre).
-      for (std::size_t d = 0; d < xa.size(); ++d) {
-        const double lo = host.lower()[d], hi = host.upper()[d], half = 0.5 * element * (hi - lo);
-        const double centre = lo + half + (xa[d] - lo) * (1 - element);
-        const bool upper = xc[d] > 0.5 * (lo + hi);
-        xc[d] = centre;
-        xa[d] = centre + (upper ? half : -half);
-      }
+};
+
+// One run of `pairs`: the hosts, the pair drawing and the totals the pairs add to.
+struct PairsRun {
+  const PairsOptions& o;
+  const mesh::Host& host;
+  const mesh::Host& canonical_host;
+  const analytic_model* am;  // the analytic model (closed-form fields), or null
+  const OptionsMapper& with_options;
+  std::vector<double> box_lo, box_hi;  // --box, or empty
+  std::mt19937 rng;
+  PairTotals t;
+
+  std::vector<double> random_x();
+  void draw(int i, std::vector<double>& xa, std::vector<double>& xc);
+  void print_x(const char* name, const std::vector<double>& x) const;
+  void pair(int i, const std::vector<double>& xa, const std::vector<double>& xc);
+  std::string compare_with_simulate(const std::vector<double>& xa, const mesh::Sample& a,
+                                    const mesh::Sample& cm, const mesh::MappedSample& m,
+                                    mapping::PairQuality& q, bool& fields_measured);
+  void record(int i, const std::vector<double>& xa, const mesh::Sample& a, const mesh::Sample& c,
+              const mesh::Sample& cm, const mesh::MappedSample& m, char topo, double ms,
+              const mapping::RefineStats& rs);
+};
+
+std::vector<double> PairsRun::random_x() {
+  std::vector<double> x(static_cast<std::size_t>(host.dim()));
+  for (std::size_t d = 0; d < x.size(); ++d)
+    x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
+  return x;
+}
+
+// Pair i's source and canonical parameters. Every pair draws two random points, skipped or not,
+// so that pair i is the same with or without --only.
+void PairsRun::draw(int i, std::vector<double>& xa, std::vector<double>& xc) {
+  xa = random_x();
+  xc = random_x();
+  if (!box_lo.empty()) {
+    for (std::size_t d = 0; d < xa.size(); ++d) {
+      xc[d] = 0.5 * (box_lo[d] + box_hi[d]);
+      xa[d] = (i >> d) & 1 ? box_hi[d] : box_lo[d];
     }
-    if (same) xc = xa;
-    if (only >= 0 && i != only) continue;
-    // Every digit, so that a test can regenerate the pair exactly (the meshes of two samples
-    // whose parameters differ in the seventh digit may differ).
-    if (only >= 0) {
-      auto print_x = [&](const char* name, const std::vector<double>& x) {
-        std::printf("%s x =", name);
-        for (std::size_t d = 0; d < x.size(); ++d)
-          std::printf(" %s=%.17g", host.names()[d].c_str(), x[d]);
-        std::printf("\n");
-      };
-      print_x("source", xa);
-      print_x("canonical", xc);
+  } else if (o.element > 0) {
+    // xa picks the box's position, xc's coordinates the corner (below or above the centre).
+    for (std::size_t d = 0; d < xa.size(); ++d) {
+      const double lo = host.lower()[d], hi = host.upper()[d], half = 0.5 * o.element * (hi - lo);
+      const double centre = lo + half + (xa[d] - lo) * (1 - o.element);
+      const bool upper = xc[d] > 0.5 * (lo + hi);
+      xc[d] = centre;
+      xa[d] = centre + (upper ? half : -half);
     }
-    const mesh::Sample a = host.evaluate(xa.data()), c = canonical_host.evaluate(xc.data());
-    if (!a.feasible || !c.feasible) {
-      ++infeasible;
-      continue;
-    }
-    const char topo = topology_change(a, c);
-    if (across && topo == '-') continue;
-    differing += mesh::same_combinatorics(a, c) ? 0 : 1;
-    ++found;
-    topology += topo == 'T' ? 1 : 0;
-    edges_only += topo == 'E' ? 1 : 0;
-    mesh::MappedSample m;
-    std::string why;
-    const auto t0 = Clock::now();
-    // With --refine the pair is measured on the refined canonical `cr`.
-    mesh::Sample cr;
-    mapping::RefineStats rs;
-    bool ok;
-    if (ro.rounds > 0) {
-      std::vector<mesh::MappedSample> onto;
-      ok = mapping::refine_canonical({&a}, c, with_options, cr, onto, why, &rs, ro);
-      if (ok) m = std::move(onto[0]);
-    } else {
-      ok = mapping::map_sample(a, c, m, why, nullptr, mo);
-    }
-    const mesh::Sample& cm = ro.rounds > 0 && ok ? cr : c;
-    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    if (!ok) {
-      ++failed;
-      std::printf("%5d %6zu %6zu %4c %8.2f FAILED: %s\n", i, a.vertex_count(), c.vertex_count(),
-                  topo, ms, why.c_str());
-      continue;
-    }
-    mapping::PairQuality q = mapping::measure_pair(
-        a, cm, m,
-        am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
-          return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
-        })
-           : mapping::FieldTruth());
-    // The canonical mesh's own quality, for comparison: the mapping cannot do better.
-    const double own = mapping::tet_quality(cm.vertices, cm.tets).min_scaled_jacobian;
-    char fmax[16] = "n/a", f99[16] = "n/a";
-    std::string by_field;
-    bool fields_measured = am != nullptr && !fem;
-    if (fem) {
-      // The row's field columns: the largest of the fields' max and of their 99th percentiles.
-      q.field_max = q.field_p99 = 0;
-      mesh::Sample mesh;
-      std::string no;
-      if (!mapping::mesh_for_simulation(a, cm, m.vertices, mesh, no)) {
-        by_field = "not simulated: " + no;
-      } else if (const mesh::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
-        by_field = "not simulated: " + r.message;
-      } else {
-        for (const mapping::FieldError& e : mapping::compare_fields(a, m, r)) {
-          q.field_max = std::max(q.field_max, e.max);
-          q.field_p99 = std::max(q.field_p99, e.p99);
-          char one[96];
-          std::snprintf(one, sizeof one, "%s %.2e / %.2e", e.name.c_str(), e.max, e.p99);
-          by_field += (by_field.empty() ? "" : ", ") + std::string(one);
-          auto& [fm, f9] = fem_by_field[e.name];
-          fm = std::max(fm, e.max);
-          f9.push_back(e.p99);
-        }
-        ++simulated;
-        fields_measured = true;
-      }
-    }
-    if (fields_measured) {
-      std::snprintf(fmax, sizeof fmax, "%.2e", q.field_max);
-      std::snprintf(f99, sizeof f99, "%.2e", q.field_p99);
-    }
-    std::printf("%5d %6zu %6zu %4c %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n", i,
-                a.vertex_count(), c.vertex_count(), topo, ms, q.hausdorff_max, q.hausdorff_p99,
-                q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax, f99);
-    if (fem)
-      std::printf("      fields (max / p99) against the host's simulate on the mapped mesh: %s\n",
-                  by_field.c_str());
-    if (ro.rounds > 0)
-      std::printf(
-          "      refined: %d rounds, +%zu canonical vertices (%zu), departure %.2e -> %.2e%s%s\n",
-          rs.rounds, rs.added_vertices, cm.vertex_count(), rs.before, rs.after,
-          rs.stopped.empty() ? "" : "; stopped by ", rs.stopped.c_str());
-    if (where)
-      std::printf("      Hausdorff max at (%.4g, %.4g, %.4g): %s vertex on face tag %d\n",
-                  q.hausdorff_at[0], q.hausdorff_at[1], q.hausdorff_at[2],
-                  q.hausdorff_at_source ? "a source" : "a mapped", q.hausdorff_tag);
-    times.push_back(ms);
-    sizes_v.push_back(static_cast<double>(cm.vertex_count()));
-    haus.push_back(q.hausdorff_max);
-    haus99.push_back(q.hausdorff_p99);
-    area.push_back(q.region_area_error);
-    field.push_back(q.field_max);
-    field99.push_back(q.field_p99);
-    min_sj = std::min(min_sj, q.min_scaled_jacobian);
-    inverted += q.inverted;
   }
+  if (o.same) xc = xa;
+}
+
+// Every digit, so that a test can regenerate the pair exactly (the meshes of two samples whose
+// parameters differ in the seventh digit may differ).
+void PairsRun::print_x(const char* name, const std::vector<double>& x) const {
+  std::printf("%s x =", name);
+  for (std::size_t d = 0; d < x.size(); ++d)
+    std::printf(" %s=%.17g", host.names()[d].c_str(), x[d]);
+  std::printf("\n");
+}
+
+// Evaluates and maps the pair (xa -> xc): skipped when a sample is infeasible or, with --across,
+// when the topology is the same; a failed mapping is a row of its own.
+void PairsRun::pair(int i, const std::vector<double>& xa, const std::vector<double>& xc) {
+  const mesh::Sample a = host.evaluate(xa.data()), c = canonical_host.evaluate(xc.data());
+  if (!a.feasible || !c.feasible) {
+    ++t.infeasible;
+    return;
+  }
+  const char topo = topology_change(a, c);
+  if (o.across && topo == '-') return;
+  t.differing += mesh::same_combinatorics(a, c) ? 0 : 1;
+  ++t.found;
+  t.topology += topo == 'T' ? 1 : 0;
+  t.edges_only += topo == 'E' ? 1 : 0;
+  mesh::MappedSample m;
+  std::string why;
+  const auto t0 = Clock::now();
+  // With --refine the pair is measured on the refined canonical `cr`.
+  mesh::Sample cr;
+  mapping::RefineStats rs;
+  bool ok;
+  if (o.ro.rounds > 0) {
+    std::vector<mesh::MappedSample> onto;
+    ok = mapping::refine_canonical({&a}, c, with_options, cr, onto, why, &rs, o.ro);
+    if (ok) m = std::move(onto[0]);
+  } else {
+    ok = mapping::map_sample(a, c, m, why, nullptr, o.mo);
+  }
+  const mesh::Sample& cm = o.ro.rounds > 0 && ok ? cr : c;
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  if (!ok) {
+    ++t.failed;
+    std::printf("%5d %6zu %6zu %4c %8.2f FAILED: %s\n", i, a.vertex_count(), c.vertex_count(), topo,
+                ms, why.c_str());
+    return;
+  }
+  record(i, xa, a, c, cm, m, topo, ms, rs);
+}
+
+// --fem: the fields the mapping carries against the host's simulate at the source's parameters on
+// the mapped mesh. The row's field columns become the largest of the fields' max and of their
+// 99th percentiles; returns the per-field text, or why nothing was simulated.
+std::string PairsRun::compare_with_simulate(const std::vector<double>& xa, const mesh::Sample& a,
+                                            const mesh::Sample& cm, const mesh::MappedSample& m,
+                                            mapping::PairQuality& q, bool& fields_measured) {
+  std::string by_field;
+  q.field_max = q.field_p99 = 0;
+  mesh::Sample mesh;
+  std::string no;
+  if (!mapping::mesh_for_simulation(a, cm, m.vertices, mesh, no)) {
+    by_field = "not simulated: " + no;
+  } else if (const mesh::Sample r = host.simulate(xa.data(), mesh); !r.feasible) {
+    by_field = "not simulated: " + r.message;
+  } else {
+    for (const mapping::FieldError& e : mapping::compare_fields(a, m, r)) {
+      q.field_max = std::max(q.field_max, e.max);
+      q.field_p99 = std::max(q.field_p99, e.p99);
+      char one[96];
+      std::snprintf(one, sizeof one, "%s %.2e / %.2e", e.name.c_str(), e.max, e.p99);
+      by_field += (by_field.empty() ? "" : ", ") + std::string(one);
+      auto& [fm, f9] = t.fem_by_field[e.name];
+      fm = std::max(fm, e.max);
+      f9.push_back(e.p99);
+    }
+    ++t.simulated;
+    fields_measured = true;
+  }
+  return by_field;
+}
+
+// Measures a mapped pair (source a, canonical c, refined canonical cm), prints its row and adds it
+// to the totals.
+void PairsRun::record(int i, const std::vector<double>& xa, const mesh::Sample& a,
+                      const mesh::Sample& c, const mesh::Sample& cm, const mesh::MappedSample& m,
+                      char topo, double ms, const mapping::RefineStats& rs) {
+  mapping::PairQuality q = mapping::measure_pair(
+      a, cm, m,
+      am ? mapping::FieldTruth([&](int f, const double* pt, double* v) {
+        return analytic_model_field_at(am, f, xa.data(), pt, v) == CADINTERP_OK;
+      })
+         : mapping::FieldTruth());
+  // The canonical mesh's own quality, for comparison: the mapping cannot do better.
+  const double own = mapping::tet_quality(cm.vertices, cm.tets).min_scaled_jacobian;
+  char fmax[16] = "n/a", f99[16] = "n/a";
+  std::string by_field;
+  bool fields_measured = am != nullptr && !o.fem;
+  if (o.fem) by_field = compare_with_simulate(xa, a, cm, m, q, fields_measured);
+  if (fields_measured) {
+    std::snprintf(fmax, sizeof fmax, "%.2e", q.field_max);
+    std::snprintf(f99, sizeof f99, "%.2e", q.field_p99);
+  }
+  std::printf("%5d %6zu %6zu %4c %8.2f %10.2e %10.2e %8.3f %8.3f %4zu %9.2e %10s %10s\n", i,
+              a.vertex_count(), c.vertex_count(), topo, ms, q.hausdorff_max, q.hausdorff_p99,
+              q.min_scaled_jacobian, own, q.inverted, q.region_area_error, fmax, f99);
+  if (o.fem)
+    std::printf("      fields (max / p99) against the host's simulate on the mapped mesh: %s\n",
+                by_field.c_str());
+  if (o.ro.rounds > 0)
+    std::printf(
+        "      refined: %d rounds, +%zu canonical vertices (%zu), departure %.2e -> %.2e%s%s\n",
+        rs.rounds, rs.added_vertices, cm.vertex_count(), rs.before, rs.after,
+        rs.stopped.empty() ? "" : "; stopped by ", rs.stopped.c_str());
+  if (o.where)
+    std::printf("      Hausdorff max at (%.4g, %.4g, %.4g): %s vertex on face tag %d\n",
+                q.hausdorff_at[0], q.hausdorff_at[1], q.hausdorff_at[2],
+                q.hausdorff_at_source ? "a source" : "a mapped", q.hausdorff_tag);
+  t.times.push_back(ms);
+  t.sizes_v.push_back(static_cast<double>(cm.vertex_count()));
+  t.haus.push_back(q.hausdorff_max);
+  t.haus99.push_back(q.hausdorff_p99);
+  t.area.push_back(q.region_area_error);
+  t.field.push_back(q.field_max);
+  t.field99.push_back(q.field_p99);
+  t.min_sj = std::min(t.min_sj, q.min_scaled_jacobian);
+  t.inverted += q.inverted;
+}
+
+// The summary lines under the pairs' table.
+void print_pairs_summary(const PairTotals& t, bool fem, const analytic_model* am) {
   auto mx = [](const std::vector<double>& v) {
     return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
   };
@@ -420,35 +453,38 @@ int pairs(const std::vector<std::string>& args) {
       "infeasible); Hausdorff max %.2e, "
       "p99 over pairs of per-pair p99 %.2e (target 1e-3); min scaled Jacobian %.3f; inverted %zu;"
       " region area error max %.2e (target 1e-2); ",
-      haus.size(), differing, topology, edges_only, failed, infeasible, mx(haus),
-      percentile(haus99, 0.99), min_sj, inverted, mx(area));
+      t.haus.size(), t.differing, t.topology, t.edges_only, t.failed, t.infeasible, mx(t.haus),
+      percentile(t.haus99, 0.99), t.min_sj, t.inverted, mx(t.area));
   if (fem) {
     std::printf(
         "fields against the host's simulate on the mapped mesh (%zu of %zu mapped pairs "
         "simulated), max / p99 over pairs of per-pair p99:",
-        simulated, haus.size());
-    for (const auto& [name, e] : fem_by_field)
+        t.simulated, t.haus.size());
+    for (const auto& [name, e] : t.fem_by_field)
       std::printf(" %s %.2e / %.2e", name.c_str(), e.first, percentile(e.second, 0.99));
     std::printf("\n");
   } else if (am)
-    std::printf("field error max %.2e, p99 %.2e\n", mx(field), percentile(field99, 0.99));
+    std::printf("field error max %.2e, p99 %.2e\n", mx(t.field), percentile(t.field99, 0.99));
   else
     std::printf(
         "field error n/a (no closed-form truth for this host; --fem compares with its "
         "simulate on the mapped mesh)\n");
-  if (!times.empty()) {
+  if (!t.times.empty()) {
     double tsum = 0, vsum = 0;
-    for (std::size_t i = 0; i < times.size(); ++i) {
-      tsum += times[i];
-      vsum += sizes_v[i];
+    for (std::size_t i = 0; i < t.times.size(); ++i) {
+      tsum += t.times[i];
+      vsum += t.sizes_v[i];
     }
     std::printf(
         "time per mapping: mean %.1f ms, max %.1f ms, at mean V_can %.0f (%.1f us per "
         "canonical vertex)\n",
-        tsum / double(times.size()), mx(times), vsum / double(times.size()), 1e3 * tsum / vsum);
+        tsum / double(t.times.size()), mx(t.times), vsum / double(t.times.size()),
+        1e3 * tsum / vsum);
   }
+}
 
-  // ms per mapping against the vertex count: the plate at one shape pair, finer and finer.
+// ms per mapping against the vertex count: the plate at one shape pair, finer and finer.
+void print_timing_table(const std::string& sizes, const mapping::MapOptions& mo) {
   const std::vector<std::string> edges = cli::split_list(sizes);
   if (!edges.empty()) {
     std::printf("\ntiming (plate, source (60,30,6) -> canonical (80,45,8), same edge length)\n");
@@ -475,7 +511,66 @@ int pairs(const std::vector<std::string>& args) {
     std::printf("%8s %8zu %8zu %8zu %10.2f\n", e.c_str(), a.vertex_count(), c.vertex_count(),
                 c.tet_count(), ms);
   }
-  return failed ? 1 : 0;
+}
+
+int pairs(const std::vector<std::string>& args) {
+  PairsOptions o;
+  if (!parse_pairs_options(args, o)) return 0;
+  const OptionsMapper with_options(o.mo);
+
+  // Field truth in closed form exists for the analytic host only. Another host's own fields at
+  // the mapped points are what the transfer interpolates, so comparing with them would measure
+  // nothing: its fields are n/a unless --fem asks it to simulate on the mapped mesh itself, a
+  // truth that also holds the difference between two meshes' discretizations of the same field.
+  const bool analytic = o.library.empty();
+  if (!analytic) o.options = o.host_options;
+  if (!analytic && !o.sizes_given) o.sizes.clear();
+  const cadinterp_host* h =
+      analytic ? open_host(o.model, o.options) : open_library_host(o.library, o.model, o.options);
+  const mesh::Host host(*h);
+  const analytic_model* am = analytic ? analytic_host_model(h) : nullptr;
+  const bool other = !o.canonical_options.empty() && o.canonical_options != o.options;
+  const mesh::Host canonical_host(
+      !other     ? *h
+      : analytic ? *open_host(o.model, o.canonical_options)
+                 : *open_library_host(o.library, o.model, o.canonical_options));
+  PairsRun run{o,
+               host,
+               canonical_host,
+               am,
+               with_options,
+               {},
+               {},
+               std::mt19937(static_cast<unsigned>(o.seed)),
+               {}};
+  if (!o.box.empty()) {
+    parse_box(o.box, host.dim(), run.box_lo, run.box_hi);
+    o.count = 1 << host.dim();
+  }
+  std::printf("model %s (%s)%s%s, %d random pairs%s%s%s%s\n", o.model.c_str(), o.options.c_str(),
+              analytic ? "" : " from ", analytic ? "" : o.library.c_str(), o.count,
+              o.element > 0 ? " (element corner -> centre)" : "",
+              other ? ", the canonical's options (" : "", other ? o.canonical_options.c_str() : "",
+              other ? ")" : "");
+  if (o.same) std::printf("the canonical at the source's parameters\n");
+  std::printf("%5s %6s %6s %4s %8s %10s %10s %8s %8s %4s %9s %10s %10s\n", "pair", "V_src", "V_can",
+              "topo", "ms", "haus_max", "haus_p99", "min_sj", "can_sj", "inv", "area_err",
+              "field_max", "field_p99");
+  const int count = o.count;
+  for (int i = 0;
+       o.across && run.box_lo.empty() ? run.t.found < count && i < 200 * count : i < count; ++i) {
+    std::vector<double> xa, xc;
+    run.draw(i, xa, xc);
+    if (o.only >= 0 && i != o.only) continue;
+    if (o.only >= 0) {
+      run.print_x("source", xa);
+      run.print_x("canonical", xc);
+    }
+    run.pair(i, xa, xc);
+  }
+  print_pairs_summary(run.t, o.fem, am);
+  print_timing_table(o.sizes, o.mo);
+  return run.t.failed ? 1 : 0;
 }
 
 int cubic(const std::vector<std::string>& args) {

@@ -22,9 +22,9 @@
 #include <vector>
 
 #include "builder/builder_e2e.h"
-#include "mesh/host_call.h"
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
+#include "mesh/host_call.h"
 #include "occt_host.h"
 
 namespace {
@@ -91,192 +91,211 @@ int usage() {
   return 2;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The command line.
+struct Args {
   bool full = false;
-  std::vector<std::string> models = cadinterp::occt::model_names();
-  models.push_back("wrench_load");
+  std::vector<std::string> models;
   int points = 100, max_samples = -1, max_depth = -1, threads = 0;
   unsigned seed = 7;
   std::string dir = std::filesystem::temp_directory_path().string();
   std::string host_options;
   bool simulate_mapped = false;
   int canonical_refinement = -1;
+};
+
+// Parses the command line into `a`: 0, or the exit status of a usage error (the usage printed).
+int parse_args(int argc, char** argv, Args& a) {
+  a.models = cadinterp::occt::model_names();
+  a.models.push_back("wrench_load");
   for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
+    const std::string arg = argv[i];
     auto next = [&]() -> std::string {
       if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
+        std::fprintf(stderr, "%s needs a value\n", arg.c_str());
         std::exit(usage());
       }
       return argv[++i];
     };
-    if (a == "--full") {
-      full = true;
-    } else if (a == "--models") {
-      models.clear();
+    if (arg == "--full") {
+      a.full = true;
+    } else if (arg == "--models") {
+      a.models.clear();
       std::stringstream ss(next());
-      for (std::string m; std::getline(ss, m, ',');) models.push_back(m);
-    } else if (a == "--points") {
-      points = std::atoi(next().c_str());
-    } else if (a == "--max-samples") {
-      max_samples = std::atoi(next().c_str());
-    } else if (a == "--max-depth") {
-      max_depth = std::atoi(next().c_str());
-    } else if (a == "--threads") {
-      threads = std::atoi(next().c_str());
-    } else if (a == "--seed") {
-      seed = static_cast<unsigned>(std::atoi(next().c_str()));
-    } else if (a == "--dir") {
-      dir = next();
-    } else if (a == "--host-options") {
-      host_options = next();
-    } else if (a == "--simulate-mapped") {
-      simulate_mapped = true;
-    } else if (a == "--canonical-refinement") {
-      canonical_refinement = std::atoi(next().c_str());
-      if (canonical_refinement < 0 || canonical_refinement > 20) return usage();
+      for (std::string m; std::getline(ss, m, ',');) a.models.push_back(m);
+    } else if (arg == "--points") {
+      a.points = std::atoi(next().c_str());
+    } else if (arg == "--max-samples") {
+      a.max_samples = std::atoi(next().c_str());
+    } else if (arg == "--max-depth") {
+      a.max_depth = std::atoi(next().c_str());
+    } else if (arg == "--threads") {
+      a.threads = std::atoi(next().c_str());
+    } else if (arg == "--seed") {
+      a.seed = static_cast<unsigned>(std::atoi(next().c_str()));
+    } else if (arg == "--dir") {
+      a.dir = next();
+    } else if (arg == "--host-options") {
+      a.host_options = next();
+    } else if (arg == "--simulate-mapped") {
+      a.simulate_mapped = true;
+    } else if (arg == "--canonical-refinement") {
+      a.canonical_refinement = std::atoi(next().c_str());
+      if (a.canonical_refinement < 0 || a.canonical_refinement > 20) return usage();
     } else {
       return usage();
     }
   }
-  if (points < 1) return usage();
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) {
-    std::fprintf(stderr, "cannot create --dir %s: %s\n", dir.c_str(), ec.message().c_str());
-    return 1;
-  }
+  if (a.points < 1) return usage();
+  return 0;
+}
 
-  struct Row {
-    std::string model, note;
-    int K = 0, depth = 0, samples = 0, infeasible = 0, elements = 0, bad_elements = 0, stored = 0;
-    int unmapped = 0;  // of bad_elements: samples feasible, a term not mapped
-    int simulated = 0, simulate_failures = 0;        // --simulate-mapped: mapped terms
-    int refined_elements = 0, refined_vertices = 0;  // canonical refinement
-    std::string first_simulate_failure;
-    double mesh_tets = 0, per_sample = 0;
-    cadinterp::occt::StageTimes stages;
-    bool accuracy = false;
-    cadinterp::builder::AccuracyReport acc;
-    int volume_points = 0;
-    double volume_max = 0, host_volume_max = 0;
+// One model's build and measurements: a row of each table.
+struct Row {
+  std::string model, note;
+  int K = 0, depth = 0, samples = 0, infeasible = 0, elements = 0, bad_elements = 0, stored = 0;
+  int unmapped = 0;                          // of bad_elements: samples feasible, a term not mapped
+  int simulated = 0, simulate_failures = 0;  // --simulate-mapped: mapped terms
+  int refined_elements = 0, refined_vertices = 0;  // canonical refinement
+  std::string first_simulate_failure;
+  double mesh_tets = 0, per_sample = 0;
+  cadinterp::occt::StageTimes stages;
+  bool accuracy = false;
+  cadinterp::builder::AccuracyReport acc;
+  int volume_points = 0;
+  double volume_max = 0, host_volume_max = 0;
+};
+
+// The host options of model `name`: the small meshes unless --full, then --host-options.
+std::string options_of(const std::string& name, const Args& a) {
+  std::string options = a.full ? "" : small_options(model_of(name));
+  options += extra_options(name);
+  if (!a.host_options.empty()) options += "," + a.host_options;
+  if (!options.empty() && options[0] == ',') options.erase(0, 1);
+  return options;
+}
+
+// Builds `host`'s asset at `path` and fills the row's Table 1 columns.
+cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadinterp_host* host,
+                                             const Args& a, const std::string& path, Row& row) {
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.threads = a.threads;
+  o.simulate_mapped = a.simulate_mapped ? 1 : 0;
+  if (a.canonical_refinement >= 0) o.canonical_refinement = a.canonical_refinement;
+  o.max_samples = a.max_samples > 0 ? a.max_samples : (a.full ? 256 : 40);
+  o.max_depth = a.max_depth >= 0 ? a.max_depth : (a.full ? 8 : 4);
+  row.K = host->parameter_count;
+  row.depth = o.max_depth;
+  // A build of a model with many parameters runs for tens of minutes (each element maps its
+  // 2^K corner samples): a line at most once a minute says it is alive and how far it got.
+  struct Progress {
+    const std::string* name;
+    double next = 60;
+  } progress{&name};
+  o.progress_user = &progress;
+  o.progress = [](void* user, const cadinterp_progress* p) {
+    auto* at = static_cast<Progress*>(user);
+    if (p->seconds >= at->next) {
+      std::fprintf(stderr, "  %s: %d samples done, %d queued, %d elements, %.0f s\n",
+                   at->name->c_str(), p->samples_done, p->samples_queued, p->elements, p->seconds);
+      at->next = p->seconds + 60;
+    }
+    return 0;
   };
-  std::vector<Row> rows;
+  cadinterp::builder::BuildOutcome b = cadinterp::builder::build_asset(*host, o, path);
+  row.samples = b.report.samples;
+  row.infeasible = b.report.infeasible_points;
+  row.elements = b.report.elements;
+  row.bad_elements = b.report.infeasible_elements;
+  row.unmapped = b.stages.unmapped_elements;
+  row.simulated = b.stages.mapped_simulated;
+  row.simulate_failures = b.stages.mapped_simulate_failures;
+  row.first_simulate_failure = b.first_mapped_simulate_failure;
+  row.refined_elements = b.stages.refined_elements;
+  row.refined_vertices = b.stages.refined_vertices;
+  row.stored = b.report.stored_meshes;
+  row.per_sample =
+      b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : 0;
+  return b;
+}
 
-  for (const std::string& name : models) {
-    Row row;
-    row.model = name;
-    std::string options = full ? "" : small_options(model_of(name));
-    options += extra_options(name);
-    if (!host_options.empty()) options += "," + host_options;
-    if (!options.empty() && options[0] == ',') options.erase(0, 1);
-    const char* error = nullptr;
-    const cadinterp_host* host =
-        cadinterp_host_entry(model_of(name).c_str(), options.c_str(), &error);
-    if (!host) {
-      std::fprintf(stderr, "%s: %s\n", name.c_str(), error);
-      return 1;
+// Volume of the interpolated mesh against BRepGProp's exact volume, and mean mesh size, at up to
+// 20 random points.
+void measure_volume(const std::string& path, const cadinterp_host* host,
+                    const cadinterp::occt::Model* model, const Args& a, Row& row) {
+  cadinterp_asset* asset = nullptr;
+  cadinterp_workspace* ws = nullptr;
+  if (cadinterp_open(path.c_str(), &asset) == CADINTERP_OK &&
+      cadinterp_workspace_create(asset, &ws) == CADINTERP_OK) {
+    std::mt19937 rng(a.seed + 1);
+    double tets = 0;
+    for (int i = 0; i < std::min(a.points, 20); ++i) {
+      std::vector<double> x;
+      for (int d = 0; d < row.K; ++d)
+        x.push_back(std::uniform_real_distribution<double>(host->parameters[d].lower,
+                                                           host->parameters[d].upper)(rng));
+      cadinterp_mesh m{};
+      if (cadinterp_eval(ws, x.data(), nullptr, 0, &m) != CADINTERP_OK) continue;
+      const cadinterp::occt::Evaluation e = model->evaluate(x.data());
+      if (!e.ok) continue;
+      double v = 0;
+      for (std::uint32_t t = 0; t < m.tet_count; ++t) v += tet_volume(m.positions, m.tets + 4 * t);
+      row.volume_max = std::max(row.volume_max, std::abs(v / e.exact_volume - 1));
+      row.host_volume_max =
+          std::max(row.host_volume_max, std::abs(e.mesh_volume / e.exact_volume - 1));
+      tets += static_cast<double>(e.tets.size() / 4);
+      ++row.volume_points;
     }
-    const cadinterp::occt::Model* model = cadinterp::occt::host_model(host);
-    model->reset_stage_times();
-    std::fprintf(stderr, "building %s (%s)...\n", name.c_str(), host->identity);
+    if (row.volume_points > 0) row.mesh_tets = tets / row.volume_points;
+  }
+  cadinterp_workspace_destroy(ws);
+  cadinterp_close(asset);
+}
 
-    cadinterp_build_options o;
-    cadinterp_build_options_init(&o);
-    o.threads = threads;
-    o.simulate_mapped = simulate_mapped ? 1 : 0;
-    if (canonical_refinement >= 0) o.canonical_refinement = canonical_refinement;
-    o.max_samples = max_samples > 0 ? max_samples : (full ? 256 : 40);
-    o.max_depth = max_depth >= 0 ? max_depth : (full ? 8 : 4);
-    row.K = host->parameter_count;
-    row.depth = o.max_depth;
-    // A build of a model with many parameters runs for tens of minutes (each element maps its
-    // 2^K corner samples): a line at most once a minute says it is alive and how far it got.
-    struct Progress {
-      const std::string* name;
-      double next = 60;
-    } progress{&name};
-    o.progress_user = &progress;
-    o.progress = [](void* user, const cadinterp_progress* p) {
-      auto* at = static_cast<Progress*>(user);
-      if (p->seconds >= at->next) {
-        std::fprintf(stderr, "  %s: %d samples done, %d queued, %d elements, %.0f s\n",
-                     at->name->c_str(), p->samples_done, p->samples_queued, p->elements,
-                     p->seconds);
-        at->next = p->seconds + 60;
-      }
-      return 0;
-    };
-    const std::string path = dir + "/occt_results_" + name + ".cadi";
-    const cadinterp::builder::BuildOutcome b = cadinterp::builder::build_asset(*host, o, path);
-    row.samples = b.report.samples;
-    row.infeasible = b.report.infeasible_points;
-    row.elements = b.report.elements;
-    row.bad_elements = b.report.infeasible_elements;
-    row.unmapped = b.stages.unmapped_elements;
-    row.simulated = b.stages.mapped_simulated;
-    row.simulate_failures = b.stages.mapped_simulate_failures;
-    row.first_simulate_failure = b.first_mapped_simulate_failure;
-    row.refined_elements = b.stages.refined_elements;
-    row.refined_vertices = b.stages.refined_vertices;
-    row.stored = b.report.stored_meshes;
-    row.per_sample =
-        b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : 0;
-    row.stages = model->stage_times();
-    if (b.status != CADINTERP_OK) {
-      row.note = std::string(cadinterp_status_string(b.status)) + ": " + b.error;
-      rows.push_back(row);
-      continue;
-    }
-
-    // Table 2: the asset against true regenerations at random points.
-    cadinterp::mesh::Host truth(*host);
-    try {
-      // Also against the host's FEM on each evaluated mesh itself, which leaves out the
-      // difference between the host's mesh of x and the evaluated one.
-      row.acc = cadinterp::builder::measure_accuracy(path, truth, points, seed, nullptr, true,
-                                                     host->simulate != nullptr);
-      row.accuracy = true;
-    } catch (const std::exception& ex) {
-      row.note = std::string("accuracy: ") + ex.what();
-    }
-
-    // Volume of the interpolated mesh against BRepGProp's exact volume, and mean mesh size.
-    cadinterp_asset* asset = nullptr;
-    cadinterp_workspace* ws = nullptr;
-    if (cadinterp_open(path.c_str(), &asset) == CADINTERP_OK &&
-        cadinterp_workspace_create(asset, &ws) == CADINTERP_OK) {
-      std::mt19937 rng(seed + 1);
-      double tets = 0;
-      for (int i = 0; i < std::min(points, 20); ++i) {
-        std::vector<double> x;
-        for (int d = 0; d < row.K; ++d)
-          x.push_back(std::uniform_real_distribution<double>(host->parameters[d].lower,
-                                                             host->parameters[d].upper)(rng));
-        cadinterp_mesh m{};
-        if (cadinterp_eval(ws, x.data(), nullptr, 0, &m) != CADINTERP_OK) continue;
-        const cadinterp::occt::Evaluation e = model->evaluate(x.data());
-        if (!e.ok) continue;
-        double v = 0;
-        for (std::uint32_t t = 0; t < m.tet_count; ++t)
-          v += tet_volume(m.positions, m.tets + 4 * t);
-        row.volume_max = std::max(row.volume_max, std::abs(v / e.exact_volume - 1));
-        row.host_volume_max =
-            std::max(row.host_volume_max, std::abs(e.mesh_volume / e.exact_volume - 1));
-        tets += static_cast<double>(e.tets.size() / 4);
-        ++row.volume_points;
-      }
-      if (row.volume_points > 0) row.mesh_tets = tets / row.volume_points;
-    }
-    cadinterp_workspace_destroy(ws);
-    cadinterp_close(asset);
+// Builds model `name` and measures its asset into a row of `rows`; false when the host refuses
+// the model (the reason printed).
+bool measure_model(const std::string& name, const Args& a, std::vector<Row>& rows) {
+  Row row;
+  row.model = name;
+  const std::string options = options_of(name, a);
+  const char* error = nullptr;
+  const cadinterp_host* host =
+      cadinterp_host_entry(model_of(name).c_str(), options.c_str(), &error);
+  if (!host) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), error);
+    return false;
+  }
+  const cadinterp::occt::Model* model = cadinterp::occt::host_model(host);
+  model->reset_stage_times();
+  std::fprintf(stderr, "building %s (%s)...\n", name.c_str(), host->identity);
+  const std::string path = a.dir + "/occt_results_" + name + ".cadi";
+  const cadinterp::builder::BuildOutcome b = build_model(name, host, a, path, row);
+  row.stages = model->stage_times();
+  if (b.status != CADINTERP_OK) {
+    row.note = std::string(cadinterp_status_string(b.status)) + ": " + b.error;
     rows.push_back(row);
+    return true;
   }
 
-  std::printf("OCCT host results (%s meshes; paper figures in brackets)\n\n",
-              full ? "full-size" : "small");
+  // Table 2: the asset against true regenerations at random points.
+  cadinterp::mesh::Host truth(*host);
+  try {
+    // Also against the host's FEM on each evaluated mesh itself, which leaves out the
+    // difference between the host's mesh of x and the evaluated one.
+    row.acc = cadinterp::builder::measure_accuracy(path, truth, a.points, a.seed, nullptr, true,
+                                                   host->simulate != nullptr);
+    row.accuracy = true;
+  } catch (const std::exception& ex) {
+    row.note = std::string("accuracy: ") + ex.what();
+  }
+  measure_volume(path, host, model, a, row);
+  rows.push_back(row);
+  return true;
+}
+
+// Table 1 (with the canonical refinement and, with --simulate-mapped, the mapped terms
+// simulated), then the host's stage times.
+void print_table1(const std::vector<Row>& rows, bool simulate_mapped) {
   std::printf(
       "Table 1  model        K (paper)  depth  samples (paper)  infeasible  elements (refused, "
       "unmapped)  mean tets (paper)  stored meshes (paper)  host s/sample\n");
@@ -313,6 +332,40 @@ int main(int argc, char** argv) {
                 r.stages.references / n, r.stages.physics / n, r.stages.regenerations,
                 r.stages.failures);
   }
+}
+
+// The row's Table 2 lines past the first: per field, and against the host's FEM on each
+// evaluated mesh (the interpolation's error without the two meshes' discretization difference
+// the truth holds).
+void print_table2_fields(const Row& r) {
+  for (std::size_t k = 0; k < r.acc.field_names.size(); ++k)
+    std::printf(
+        "           field %-14s max %.4f  99%% of values %.4f  99%% of per-point max %.4f  "
+        "(%d points)\n",
+        r.acc.field_names[k].c_str(), r.acc.field_max_by_field[k],
+        r.acc.field_vertex_p99_by_field[k], r.acc.field_p99_by_field[k], r.acc.field_points);
+  if (r.acc.evaluated_mesh_points + r.acc.evaluated_mesh_refused > 0) {
+    double own_max = 0, own_p99 = 0;
+    for (std::size_t k = 0; k < r.acc.field_names.size(); ++k) {
+      if (r.acc.field_names[k] == "traction") continue;
+      own_max = std::max(own_max, r.acc.evaluated_mesh_max_by_field[k]);
+      own_p99 = std::max(own_p99, r.acc.evaluated_mesh_vertex_p99_by_field[k]);
+    }
+    std::printf(
+        "           against the host's FEM on the evaluated mesh: FEM max %.4f  99%% %.4f  (%d "
+        "points, %d not simulated%s%s)\n",
+        own_max, own_p99, r.acc.evaluated_mesh_points, r.acc.evaluated_mesh_refused,
+        r.acc.evaluated_mesh_refused ? ", first: " : "",
+        r.acc.evaluated_mesh_first_refusal.c_str());
+    for (std::size_t k = 0; k < r.acc.field_names.size(); ++k)
+      std::printf("             field %-14s max %.4f  99%% of values %.4f\n",
+                  r.acc.field_names[k].c_str(), r.acc.evaluated_mesh_max_by_field[k],
+                  r.acc.evaluated_mesh_vertex_p99_by_field[k]);
+  }
+}
+
+// Table 2: the assets' geometry and FEM error against true regenerations.
+void print_table2(const std::vector<Row>& rows) {
   std::printf(
       "\nTable 2  model    points  geometry max (paper)  geometry 99%% (paper)  "
       "FEM max (paper)   FEM 99%% (paper)\n");
@@ -347,33 +400,12 @@ int main(int argc, char** argv) {
         r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.lost, r.acc.geometry_max,
         p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0, fem_max, p ? p->fmax : 0, fem_p99,
         p ? p->f99 : 0);
-    for (std::size_t k = 0; k < r.acc.field_names.size(); ++k)
-      std::printf(
-          "           field %-14s max %.4f  99%% of values %.4f  99%% of per-point max %.4f  "
-          "(%d points)\n",
-          r.acc.field_names[k].c_str(), r.acc.field_max_by_field[k],
-          r.acc.field_vertex_p99_by_field[k], r.acc.field_p99_by_field[k], r.acc.field_points);
-    // The same against the host's FEM on each evaluated mesh (the interpolation's error
-    // without the two meshes' discretization difference the truth above holds).
-    if (r.acc.evaluated_mesh_points + r.acc.evaluated_mesh_refused > 0) {
-      double own_max = 0, own_p99 = 0;
-      for (std::size_t k = 0; k < r.acc.field_names.size(); ++k) {
-        if (r.acc.field_names[k] == "traction") continue;
-        own_max = std::max(own_max, r.acc.evaluated_mesh_max_by_field[k]);
-        own_p99 = std::max(own_p99, r.acc.evaluated_mesh_vertex_p99_by_field[k]);
-      }
-      std::printf(
-          "           against the host's FEM on the evaluated mesh: FEM max %.4f  99%% %.4f  (%d "
-          "points, %d not simulated%s%s)\n",
-          own_max, own_p99, r.acc.evaluated_mesh_points, r.acc.evaluated_mesh_refused,
-          r.acc.evaluated_mesh_refused ? ", first: " : "",
-          r.acc.evaluated_mesh_first_refusal.c_str());
-      for (std::size_t k = 0; k < r.acc.field_names.size(); ++k)
-        std::printf("             field %-14s max %.4f  99%% of values %.4f\n",
-                    r.acc.field_names[k].c_str(), r.acc.evaluated_mesh_max_by_field[k],
-                    r.acc.evaluated_mesh_vertex_p99_by_field[k]);
-    }
+    print_table2_fields(r);
   }
+}
+
+// The interpolated meshes' volume against the exact one.
+void print_volumes(const std::vector<Row>& rows) {
   std::printf(
       "\nVolume   model    points  max |V_interp / V_exact - 1|  max |V_host_mesh / "
       "V_exact - 1|  (V_exact: BRepGProp)\n");
@@ -385,5 +417,27 @@ int main(int argc, char** argv) {
     std::printf("         %-11s  %d      %.5f                        %.5f\n", r.model.c_str(),
                 r.volume_points, r.volume_max, r.host_volume_max);
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  if (const int status = parse_args(argc, argv, a)) return status;
+  std::error_code ec;
+  std::filesystem::create_directories(a.dir, ec);
+  if (ec) {
+    std::fprintf(stderr, "cannot create --dir %s: %s\n", a.dir.c_str(), ec.message().c_str());
+    return 1;
+  }
+  std::vector<Row> rows;
+  for (const std::string& name : a.models)
+    if (!measure_model(name, a, rows)) return 1;
+
+  std::printf("OCCT host results (%s meshes; paper figures in brackets)\n\n",
+              a.full ? "full-size" : "small");
+  print_table1(rows, a.simulate_mapped);
+  print_table2(rows);
+  print_volumes(rows);
   return 0;
 }
