@@ -273,13 +273,12 @@ bool slit_anchorless_hole(HoleTry& t) {
   // a first-loop vertex that is no anchor, nearest the hole first (canonical,
   // straight-line), which becomes a new anchor too: on the source at the loop vertex
   // between the same two anchors at the same fraction of the arc length, as the
-  // hole-anchor slits below place theirs, so that it lies on the same CAD path on both
-  // sides. A first-loop anchor cannot start a slit when each of its wedges in the patch
-  // is a single triangle between two loop edges, and on finer meshes that is every
-  // anchor near the hole (the OpenCASCADE hub's flange at a chord angle of 0.2: the loop
-  // passes its anchors once per wedge, up to three times; on one pair none at all, on
-  // another only one far round the flange, whose slits found no path on the source or
-  // left layouts that differ). Up to 6 tried.
+  // hole-anchor slits (slit_to_new_loop_anchor) place theirs, so that it lies on the same CAD path
+  // on both sides. A first-loop anchor cannot start a slit when each of its wedges in the patch is
+  // a single triangle between two loop edges, and on finer meshes that is every anchor near the
+  // hole (the OpenCASCADE hub's flange at a chord angle of 0.2: the loop passes its anchors once
+  // per wedge, up to three times; on one pair none at all, on another only one far round the
+  // flange, whose slits found no path on the source or left layouts that differ). Up to 6 tried.
   if (!split && pass == 2) {
     const std::vector<char> loop_free = loop_targets(c, can_anchor_of, -1, -1);
     std::vector<std::pair<double, std::uint32_t>> starts;

@@ -279,8 +279,8 @@ bool try_hole(MappingState& st, std::size_t holed, std::size_t sidx, std::size_t
   const Patch& c = st.cp[holed];
   const Loop& hole = c.holes[hole_index];
   // Pass 2 (only where the passes before split nothing): new slit starts for a hole without
-  // anchor (d, below); and for the one hole of an annulus, the general order again with
-  // paths that run alike up to a quarter of the hole's diameter. Two paths between the same
+  // anchor (d, hole_new_anchors.cpp); and for the one hole of an annulus, the general order again
+  // with paths that run alike up to a quarter of the hole's diameter. Two paths between the same
   // anchors of an annulus differ in kind only by their winding round the hole, and one
   // that winds half a turn more runs about the hole's diameter away from the other; closer
   // than that they differ by the meshes (the OpenCASCADE hub's rim face at a chord angle of
@@ -414,7 +414,7 @@ bool split_patches_with_holes(MappingState& st) {
         for (std::uint32_t v : c.loop)
           near = std::min(
               near, dist(corr.anchors[static_cast<std::size_t>(b)].canonical, cs.position(v)));
-      if (c.holes[h].anchors.empty())  // (d) below: from the hole's vertices
+      if (c.holes[h].anchors.empty())  // (d): from the hole's vertices
         for (std::uint32_t u : c.holes[h].vertices)
           for (std::uint32_t v : c.loop)
             near = std::min(near, dist(cs.position(u), cs.position(v)));

@@ -68,7 +68,7 @@ struct HoleTry {
 /// The vertex of (vertex, fraction) pairs whose fraction is nearest `want` (the first such in
 /// their order); -1 where there is none.
 std::int64_t nearest_fraction(const std::vector<std::pair<std::uint32_t, double>>& at, double want);
-/// (d) below: a slit to a hole without anchor, whose end becomes a new anchor; true where kept.
+/// (d): a slit to a hole without anchor, whose end becomes a new anchor; true where kept.
 bool slit_anchorless_hole(HoleTry& t);
 /// (c): a slit from a hole anchor to a new anchor on the first loop; true where kept.
 bool slit_to_new_loop_anchor(HoleTry& t);

@@ -45,7 +45,7 @@ std::size_t anchorless(const std::vector<Patch>& patches) {
 // that shares a patch with another face (by tag); each is cut off its patch on both sides
 // (separate_faces) and kept when the two layouts still have the same patch keys. The loops
 // such a cut makes carry no anchor when their CAD edges are new on both sides; the rounds
-// below add one to each (d).
+// of split_patches_with_holes (hole_split.cpp) add one to each, case (d).
 void separate_merged_faces(MappingState& st) {
   const auto& source = st.source;
   const auto& canonical = st.canonical;
@@ -95,7 +95,7 @@ void separate_merged_faces(MappingState& st) {
     if (!current) {
       if (!build_patches(ss, src_cuts, src_anchor, src_tol, true, tsp, ignored) ||
           !build_patches(cs, can_cuts, can_anchor, can_tol, true, tcp, ignored))
-        break;  // the rounds below report it
+        break;  // split_patches_with_holes reports it
       merged = merged_tags();
       current = true;
     }

@@ -2,7 +2,8 @@
 // entry points. Internal to cadinterp_mapping. Each stage reads what the stages before it wrote
 // and writes its own part; map_sample (mesh_mapper.cpp) calls them in the order of §6:
 //   match_anchors          correspondence.cpp  §6.1 anchors: control points with equal IDs
-//   build_layout           layout_build.cpp    §6.2 common layout (hole_split.cpp: holes to disks)
+//   build_layout           layout_build.cpp    §6.2 common layout; patches with holes cut into
+//                                              disks in hole_split.cpp, hole_new_anchors.cpp
 //   map_surface            surface_map.cpp     §6.3 canonical boundary onto the source surface
 //   solve_interior         interior_solve.cpp  §6.4 harmonic interior, locally untangled
 //   untangle_mapping       untangling.cpp      §6.4 what stays inverted: release, boundary, whole

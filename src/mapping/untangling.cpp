@@ -75,8 +75,8 @@ bool release_paths(MappingState& st) {
     q = q2;
     where = std::move(released_where);
   } else if (q2.inverted < q.inverted) {
-    // Fewer, not none: the boundary untangling below runs from here, and once more from the
-    // state before the release (kept in `unreleased`), the better result kept. The
+    // Fewer, not none: the boundary untangling (untangle_mapping) runs from here, and once more
+    // from the state before the release (kept in `unreleased`), the better result kept. The
     // untangling's parameters of the released vertices (disk coordinates) no longer say
     // where they are, so there it leaves them where the release put them.
     unreleased = std::make_unique<MappingState::Unreleased>(
