@@ -8,6 +8,9 @@
 #include <set>
 #include <utility>
 
+#include "mapping/layout_paths.h"
+#include "mapping/mapping_state.h"
+
 namespace cadinterp::mapping {
 
 namespace {
@@ -101,14 +104,15 @@ double point_segment_distance(const double* p, const double* a, const double* b,
   return std::sqrt(d2);
 }
 
-std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges,
-                              double tolerance) {
+namespace {
+
+using Edge = std::pair<std::uint32_t, std::uint32_t>;
+
+// The mesh edges of `s` to cut along seams (layout_cuts), as (smaller, larger) vertex pairs.
+std::set<Edge> seam_edges(const Surface& s, const std::set<Id>& common_edges,
+                          const std::vector<Id>& keys, double tolerance) {
   const mesh::Sample& m = *s.sample;
   const int H = 3 * s.triangles();
-  std::vector<char> cut(static_cast<std::size_t>(H), 0);
-  std::vector<Id> keys;
-  keys.reserve(m.paths.size());
-  for (const mesh::Path& p : m.paths) keys.push_back(path_edge_key(p));
   // Seams: a common CAD edge with the same face on both sides (a periodic face's seam, e.g. a
   // cylinder's: the OpenCASCADE host emits its paths like any edge's). Its mesh edges are the
   // pairs of consecutive polyline nodes (paths run through mesh vertices, cadinterp_builder.h);
@@ -129,7 +133,6 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
   };
   // Edges inside a face; a CAD edge is a seam only when every piece of it runs along them (a
   // partial cut would leave a slit with a loop of its own).
-  using Edge = std::pair<std::uint32_t, std::uint32_t>;
   std::set<Edge> inner;
   for (int h = 0; h < H; ++h) {
     const int t = s.twin[static_cast<std::size_t>(h)];
@@ -236,6 +239,20 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
       if (whole) seam.insert(mine.begin(), mine.end());
     }
   }
+  return seam;
+}
+
+}  // namespace
+
+std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges,
+                              double tolerance) {
+  const mesh::Sample& m = *s.sample;
+  const int H = 3 * s.triangles();
+  std::vector<char> cut(static_cast<std::size_t>(H), 0);
+  std::vector<Id> keys;
+  keys.reserve(m.paths.size());
+  for (const mesh::Path& p : m.paths) keys.push_back(path_edge_key(p));
+  const std::set<Edge> seam = seam_edges(s, common_edges, keys, tolerance);
   for (int h = 0; h < H; ++h) {
     const int t = s.twin[static_cast<std::size_t>(h)];
     if (t < 0) {
@@ -282,6 +299,46 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     cut[static_cast<std::size_t>(h)] = on_unshared_edge ? 0 : 1;
   }
   return cut;
+}
+
+// §6.1: correspondence by equal IDs only; the anchors are the matched points that are mesh
+// vertices on both sides.
+bool match_anchors(MappingState& st) {
+  const auto& source = st.source;
+  const auto& canonical = st.canonical;
+  const auto& ss = st.ss;
+  const auto& cs = st.cs;
+  auto& why = st.why;
+  auto& corr = st.corr;
+  auto& src_tol = st.src_tol;
+  auto& can_tol = st.can_tol;
+  auto& dropped_anchors = st.dropped_anchors;
+  corr = correspond(source, canonical);
+  if (corr.matched_points == 0) {
+    why = "mapping: the samples have no control point with the same ID";
+    return false;
+  }
+  // Points and paths are placed on the mesh (cadinterp_builder.h); the tolerance only absorbs
+  // rounding.
+  src_tol = 1e-6 * source.bbox_diagonal();
+  can_tol = 1e-6 * canonical.bbox_diagonal();
+  // An anchor must be a mesh vertex on both sides: one that is a vertex on one side only would
+  // sit on a patch loop there and not on the other, and no patch could be paired (measured on
+  // the OpenCASCADE host, whose mesher may move the boundary off a control point). Such
+  // anchors are dropped on both sides; the others still fix the layout.
+  const std::size_t before_drop = corr.anchors.size();
+  corr.anchors.erase(std::remove_if(corr.anchors.begin(), corr.anchors.end(),
+                                    [&](const Anchor& a) {
+                                      return vertex_at(ss, a.source, src_tol) < 0 ||
+                                             vertex_at(cs, a.canonical, can_tol) < 0;
+                                    }),
+                     corr.anchors.end());
+  dropped_anchors = before_drop - corr.anchors.size();
+  if (corr.anchors.empty()) {
+    why = "mapping: no matched control point is a mesh vertex in both samples";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace cadinterp::mapping

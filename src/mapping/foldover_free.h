@@ -2,7 +2,7 @@
 // solve (interior_solve.h) places every interior vertex at once but knows nothing of
 // orientation; where the boundary moves far (a fillet 38.5 mm on one side, 8.1 mm on the other)
 // it folds whole regions over, and then no single vertex has a place that untangles its star:
-// the local untanglers (mesh_mapper.cpp, boundary_untangle.h) find none.
+// the local untanglers (interior_solve.cpp, boundary_untangle.h) find none.
 //
 // Here all free vertices move together, minimising the regularised elastic energy of Garanzha,
 // Kaporin, Kudryavtseva, Protais, Ray and Sokolov ("Foldover-free maps in 50 lines of code",

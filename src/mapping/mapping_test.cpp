@@ -403,7 +403,7 @@ TEST(MeshMapper, RefusesMalformedSamplesByName) {
   EXPECT_NE(why.find("canonical sample is invalid"), std::string::npos) << why;
 }
 
-// The in-patch relaxation (mesh_mapper.cpp) on the bracket's curved bend: mapped boundary
+// The in-patch relaxation (surface_map.cpp) on the bracket's curved bend: mapped boundary
 // vertices stay on the source's surface (the host's mesh is the truth), and the boundary
 // approximates the source no worse than the composed disk maps alone (a patch keeps the
 // relaxation only where it is nearer), better over the pairs, within the 1e-3 target.

@@ -1,11 +1,16 @@
 // The mesh mapper (paper §6): a source sample's geometry and fields in the combinatorics of an
-// element's canonical mesh, through their references (builder/mapping_hook.h). Pipeline, one
-// file per step:
-//   correspondence.cpp    control points matched by equal IDs; CAD edges present in both
-//   patch_layout.cpp      common layout: patches bounded by common CAD paths, paired by anchors
-//   mean_value_param.cpp  both sides of a patch onto one disk (Floater), composed
-//   interior_solve.cpp    P1-harmonic interior with the surface map as Dirichlet data
-//   foldover_free.cpp     tangled regions (interior, or a flat patch in its plane) untangled
+// element's canonical mesh, through their references (builder/mapping_hook.h). map_sample
+// (mesh_mapper.cpp) runs the stages of §6 in order on one state (mapping_state.h):
+//   correspondence.cpp    §6.1 control points matched by equal IDs; CAD edges present in both
+//   layout_build.cpp      §6.2 common layout: patches bounded by common CAD paths, paired by
+//                         anchors (patch_layout.cpp, layout_paths.cpp, geodesic.cpp); patches
+//                         with holes cut into disks (hole_split.cpp, hole_new_anchors.cpp)
+//   surface_map.cpp       §6.3 both sides of a patch onto one disk (mean_value_param.cpp, Floater),
+//                         composed, relaxed; placed on the smooth source (smooth_surface.cpp)
+//   interior_solve.cpp    §6.4 P1-harmonic interior with the surface map as Dirichlet data
+//   untangling.cpp        §6.4 what stays inverted: traced paths released (path_release.cpp),
+//                         boundary moved on the source (boundary_untangle.cpp), the interior
+//                         untangled as a whole (foldover_free.cpp)
 //   field_transfer.cpp    per-vertex / per-tet fields at the mapped points
 // and, after a mapping, canonical_refine.cpp: the canonical's boundary bisected where a mapped
 // term departs from its own boundary (the builder's canonical_refinement).
@@ -36,7 +41,7 @@ struct MapStats {
 
 /// Tuning of one mapping (defaults are the builder's).
 struct MapOptions {
-  /// Sweeps of the in-patch relaxation (mesh_mapper.cpp): 0 keeps the composed disk maps.
+  /// Sweeps of the in-patch relaxation (surface_map.cpp): 0 keeps the composed disk maps.
   int relax_iterations = 30;
   /// Interior solve (interior_solve.h): boundary increments, and the stiffening exponent.
   int interior_steps = 1;
@@ -46,7 +51,7 @@ struct MapOptions {
   int fallback_steps = 4;
   double fallback_stiffening = 1.0;
   /// Flat patches whose composed surface map folds triangles are laid into their plane by the
-  /// canonical's mean-value weights instead, where that folds fewer (mesh_mapper.cpp,
+  /// canonical's mean-value weights instead, where that folds fewer (surface_map.cpp,
   /// planar_placement).
   bool planar_patches = true;
 
@@ -99,14 +104,8 @@ class MeshMapper final : public mesh::Mapper {
            mesh::MappedSample& out, std::string& why) const override {
     return map_sample(source, canonical, out, why, nullptr);
   }
-  // v2: boundary vertices on the smooth (Phong) reconstruction of the source surface. v3: faces
-  // merged across a topology change separated again, traced paths measured along geodesics. v4:
-  // folded flat patches unfolded in their plane, tangled interiors untangled as a whole. v5: a
-  // one-sided edge routed so that holes keep their side, detouring paths measured along edges.
-  // v6: a loop without anchor slit in the same direction from its centre on both sides. v7: the
-  // untangler's energy evaluated with other rounding, the boundary untangled again after it. v8:
-  // a slit to a loop without anchor may start beside the first loop's anchors, at a new one.
-  // v9: a hole whose anchors are one vertex is split by paths to both sides of its rim.
+  // Recorded in every asset's provenance: it names the mapping's results, so it changes (the
+  // number goes up) exactly when some mapping's output does, and never otherwise.
   const char* name() const override { return "mesh-v9"; }
 };
 

@@ -62,7 +62,7 @@ bool build_patches(const Surface& s, const std::vector<char>& cuts,
 
 /// Cuts, inside every patch whose triangles carry more than one face tag, the border between
 /// the triangles whose tag is in `group` (sorted) and the others: faces merged across CAD edges
-/// of one side only (layout_cuts), separated again (mesh_mapper.cpp, which keeps such a cut only
+/// of one side only (layout_cuts), separated again (layout_build.cpp, which keeps such a cut only
 /// where both samples' layouts still agree). Returns the edges cut.
 std::size_t separate_faces(const Surface& s, const std::vector<Patch>& patches,
                            const std::vector<std::int32_t>& group, std::vector<char>& cuts);
