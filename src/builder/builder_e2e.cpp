@@ -6,9 +6,9 @@
 #include <random>
 #include <stdexcept>
 
-#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp.h"
 #include "mapping/field_transfer.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::builder {
 
@@ -81,172 +81,207 @@ cadinterp_host SplitHost::host() const {
   return h;
 }
 
-AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
-                                unsigned seed, const FieldTruthAt& field_truth, bool count_lost,
-                                bool on_evaluated_mesh) {
-  cadinterp_asset* raw = nullptr;
-  if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
-    throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
-  std::unique_ptr<cadinterp_asset, AssetCloser> asset(raw);
-  cadinterp_workspace* wraw = nullptr;
-  if (cadinterp_workspace_create(asset.get(), &wraw) != CADINTERP_OK)
-    throw std::runtime_error("cannot create a workspace");
-  std::unique_ptr<cadinterp_workspace, WorkspaceDestroyer> ws(wraw);
+namespace {
 
-  // Per-vertex fields are compared; per-tet fields follow the same blend.
-  std::vector<int> fields;
-  for (int f = 0; f < cadinterp_field_count(asset.get()); ++f) {
-    cadinterp_field_info info;
-    if (cadinterp_field(asset.get(), f, &info) == CADINTERP_OK &&
-        info.location == CADINTERP_PER_VERTEX)
-      fields.push_back(f);
+// One measurement (Table 2, ours): the opened asset, its per-vertex fields, and the errors
+// gathered point by point. Each comparison of a point is one member, in the order measure_accuracy
+// runs them.
+class AccuracyRun {
+ public:
+  AccuracyRun(const std::string& asset_path, const Host& host) : host_(host) {
+    cadinterp_asset* raw = nullptr;
+    if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
+      throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
+    asset_.reset(raw);
+    cadinterp_workspace* wraw = nullptr;
+    if (cadinterp_workspace_create(asset_.get(), &wraw) != CADINTERP_OK)
+      throw std::runtime_error("cannot create a workspace");
+    ws_.reset(wraw);
+    // Per-vertex fields are compared; per-tet fields follow the same blend.
+    for (int f = 0; f < cadinterp_field_count(asset_.get()); ++f) {
+      cadinterp_field_info info;
+      if (cadinterp_field(asset_.get(), f, &info) == CADINTERP_OK &&
+          info.location == CADINTERP_PER_VERTEX)
+        fields_.push_back(f);
+    }
+    for (int f : fields_) {
+      cadinterp_field_info info;
+      cadinterp_field(asset_.get(), f, &info);
+      r_.field_names.emplace_back(info.name);
+    }
+    by_field_.resize(fields_.size());
+    point_field_.resize(fields_.size());
+    pooled_.resize(fields_.size());
+    own_pooled_.resize(fields_.size());
+    own_max_.assign(fields_.size(), 0.0);
+    // The asset's regions, and per point the evaluated mesh's topology: where the host's
+    // boundary-condition faces lie on that mesh.
+    for (int g = 0; g < cadinterp_region_count(asset_.get()); ++g) {
+      cadinterp_region_info info;
+      if (cadinterp_region(asset_.get(), g, &info) != CADINTERP_OK) continue;
+      evaluated_.regions.push_back(
+          {info.name, info.kind,
+           std::vector<std::int32_t>(info.face_tags, info.face_tags + info.face_tag_count)});
+    }
   }
 
-  std::mt19937 rng(seed);
-  AccuracyReport r;
-  for (int f : fields) {
-    cadinterp_field_info info;
-    cadinterp_field(asset.get(), f, &info);
-    r.field_names.emplace_back(info.name);
-  }
-  std::vector<double> geo, fld;
-  // Per field, the error at each compared point (the max over its vertices).
-  std::vector<std::vector<double>> by_field(fields.size());
-  std::vector<double> point_field(fields.size());
-  std::vector<std::vector<double>> pooled(fields.size());  // every vertex value's error
-  auto note = [&point_field, &pooled](std::size_t k, double err, double& point_max) {
-    point_max = std::max(point_max, err);
-    point_field[k] = std::max(point_field[k], err);
-    pooled[k].push_back(err);
-  };
-  auto finish_point = [&](double point_max) {
-    fld.push_back(point_max);
-    for (std::size_t k = 0; k < fields.size(); ++k) by_field[k].push_back(point_field[k]);
-    ++r.field_points;
-  };
-  // The asset's regions, and per point the evaluated mesh's topology: where the host's
-  // boundary-condition faces lie on that mesh.
-  Sample evaluated;
-  for (int g = 0; g < cadinterp_region_count(asset.get()); ++g) {
-    cadinterp_region_info info;
-    if (cadinterp_region(asset.get(), g, &info) != CADINTERP_OK) continue;
-    evaluated.regions.push_back(
-        {info.name, info.kind,
-         std::vector<std::int32_t>(info.face_tags, info.face_tags + info.face_tag_count)});
-  }
-  std::vector<std::vector<double>> own_pooled(fields.size());
-  std::vector<double> own_max(fields.size(), 0.0);
-  const int K = host.dim();
-  for (int i = 0; i < points; ++i) {
-    std::vector<double> x(static_cast<std::size_t>(K));
-    for (int d = 0; d < K; ++d)
-      x[static_cast<std::size_t>(d)] =
-          std::uniform_real_distribution<double>(host.lower()[static_cast<std::size_t>(d)],
-                                                 host.upper()[static_cast<std::size_t>(d)])(rng);
-    ++r.points;
-    std::fill(point_field.begin(), point_field.end(), 0.0);
+  // One random point: the asset against the host's regeneration there.
+  void point(const std::vector<double>& x, const FieldTruthAt& field_truth, bool count_lost,
+             bool on_evaluated_mesh) {
+    ++r_.points;
+    std::fill(point_field_.begin(), point_field_.end(), 0.0);
     cadinterp_mesh m;
     const cadinterp_status st =
-        cadinterp_eval(ws.get(), x.data(), fields.data(), static_cast<int>(fields.size()), &m);
+        cadinterp_eval(ws_.get(), x.data(), fields_.data(), static_cast<int>(fields_.size()), &m);
     if (st == CADINTERP_E_INFEASIBLE) {
-      ++r.infeasible;
+      ++r_.infeasible;
       // Whether the host could have answered: the part of the feasible box the asset lost
       // (elements refused around it) rather than points the host itself refuses.
-      if (count_lost && host.evaluate(x.data()).feasible) ++r.lost;
-      continue;
+      if (count_lost && host_.evaluate(x.data()).feasible) ++r_.lost;
+      return;
     }
     if (st != CADINTERP_OK)
-      throw std::runtime_error(std::string("eval failed: ") + cadinterp_workspace_error(ws.get()));
-    const Sample truth = host.evaluate(x.data());
-    if (!truth.feasible) continue;  // the runtime interpolated across a point the host refuses
+      throw std::runtime_error(std::string("eval failed: ") + cadinterp_workspace_error(ws_.get()));
+    const Sample truth = host_.evaluate(x.data());
+    if (!truth.feasible) return;  // the runtime interpolated across a point the host refuses
     const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
-    geo.push_back(symmetric_hausdorff(V, F, truth.vertices, truth.triangles) /
-                  truth.bbox_diagonal());
-    if (on_evaluated_mesh) {
-      evaluated.tets.assign(m.tets, m.tets + 4 * std::size_t(m.tet_count));
-      evaluated.triangles = F;
-      evaluated.triangle_tags.assign(m.triangle_tags, m.triangle_tags + m.triangle_count);
-      Sample mesh;
-      std::string why;
-      Sample own;
-      if (mapping::mesh_for_simulation(truth, evaluated, V, mesh, why)) {
-        own = host.simulate(x.data(), mesh);
-        why = own.message;
-      }
-      if (!own.feasible) {
-        if (r.evaluated_mesh_refused++ == 0) r.evaluated_mesh_first_refusal = why;
-      } else {
-        ++r.evaluated_mesh_points;
-        for (std::size_t k = 0; k < fields.size(); ++k) {
-          const auto fi = static_cast<std::size_t>(fields[k]);
-          if (fi >= truth.fields.size()) continue;
-          const Field& tf = truth.fields[fi];
-          const auto of = std::find_if(own.fields.begin(), own.fields.end(),
-                                       [&](const Field& f) { return f.name == tf.name; });
-          if (of == own.fields.end() ||
-              of->values.size() != std::size_t(m.vertex_count) * std::size_t(tf.components))
-            continue;
-          const double range = value_range(tf.values);
-          for (std::size_t j = 0; j < of->values.size(); ++j) {
-            const double e = std::abs(static_cast<double>(m.fields[k][j]) - of->values[j]) / range;
-            own_max[k] = std::max(own_max[k], e);
-            own_pooled[k].push_back(e);
-          }
-        }
+    geo_.push_back(symmetric_hausdorff(V, F, truth.vertices, truth.triangles) /
+                   truth.bbox_diagonal());
+    if (on_evaluated_mesh) against_host_on_evaluated_mesh(x, truth, m, V, F);
+    if (field_truth)
+      against_closed_form(x, truth, m, field_truth);
+    else if (!same_mesh(truth, m))
+      against_located_truth(truth, m);
+    else
+      against_same_mesh(truth, m);
+  }
+
+  AccuracyReport finish() {
+    for (std::size_t k = 0; k < fields_.size(); ++k) {
+      const std::vector<double>& f = by_field_[k];
+      r_.field_max_by_field.push_back(f.empty() ? 0.0 : *std::max_element(f.begin(), f.end()));
+      r_.field_p99_by_field.push_back(percentile99(f));
+      r_.field_vertex_p99_by_field.push_back(percentile99(std::move(pooled_[k])));
+      r_.evaluated_mesh_max_by_field.push_back(own_max_[k]);
+      r_.evaluated_mesh_vertex_p99_by_field.push_back(percentile99(std::move(own_pooled_[k])));
+    }
+    if (!geo_.empty()) r_.geometry_max = *std::max_element(geo_.begin(), geo_.end());
+    if (!fld_.empty()) r_.field_max = *std::max_element(fld_.begin(), fld_.end());
+    r_.geometry_p99 = percentile99(geo_);
+    r_.field_p99 = percentile99(fld_);
+    return r_;
+  }
+
+ private:
+  static bool same_mesh(const Sample& truth, const cadinterp_mesh& m) {
+    return truth.vertex_count() == m.vertex_count && truth.tet_count() == m.tet_count &&
+           std::equal(truth.tets.begin(), truth.tets.end(), m.tets);
+  }
+
+  // One vertex value's error of field k, into the point's maximum e.
+  void note(std::size_t k, double err, double& e) {
+    e = std::max(e, err);
+    point_field_[k] = std::max(point_field_[k], err);
+    pooled_[k].push_back(err);
+  }
+  void finish_point(double e) {
+    fld_.push_back(e);
+    for (std::size_t k = 0; k < fields_.size(); ++k) by_field_[k].push_back(point_field_[k]);
+    ++r_.field_points;
+  }
+
+  // The host's own simulate on the evaluated mesh (no two-mesh discretization difference in the
+  // truth): its fields against the asset's, where the host's regions can be placed on that mesh.
+  void against_host_on_evaluated_mesh(const std::vector<double>& x, const Sample& truth,
+                                      const cadinterp_mesh& m, const std::vector<double>& V,
+                                      const std::vector<std::uint32_t>& F) {
+    evaluated_.tets.assign(m.tets, m.tets + 4 * std::size_t(m.tet_count));
+    evaluated_.triangles = F;
+    evaluated_.triangle_tags.assign(m.triangle_tags, m.triangle_tags + m.triangle_count);
+    Sample mesh;
+    std::string why;
+    Sample own;
+    if (mapping::mesh_for_simulation(truth, evaluated_, V, mesh, why)) {
+      own = host_.simulate(x.data(), mesh);
+      why = own.message;
+    }
+    if (!own.feasible) {
+      if (r_.evaluated_mesh_refused++ == 0) r_.evaluated_mesh_first_refusal = why;
+      return;
+    }
+    ++r_.evaluated_mesh_points;
+    for (std::size_t k = 0; k < fields_.size(); ++k) {
+      const auto fi = static_cast<std::size_t>(fields_[k]);
+      if (fi >= truth.fields.size()) continue;
+      const Field& tf = truth.fields[fi];
+      const auto of = std::find_if(own.fields.begin(), own.fields.end(),
+                                   [&](const Field& f) { return f.name == tf.name; });
+      if (of == own.fields.end() ||
+          of->values.size() != std::size_t(m.vertex_count) * std::size_t(tf.components))
+        continue;
+      const double range = value_range(tf.values);
+      for (std::size_t j = 0; j < of->values.size(); ++j) {
+        const double e = std::abs(static_cast<double>(m.fields[k][j]) - of->values[j]) / range;
+        own_max_[k] = std::max(own_max_[k], e);
+        own_pooled_[k].push_back(e);
       }
     }
-    if (field_truth) {
-      double e = 0;
-      for (std::size_t k = 0; k < fields.size(); ++k) {
-        const auto fi = static_cast<std::size_t>(fields[k]);
-        if (fi >= truth.fields.size()) continue;
-        const double range = value_range(truth.fields[fi].values);
-        const auto C = static_cast<std::size_t>(truth.fields[fi].components);
-        std::vector<double> value(C);
-        for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
-          const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
-          if (!field_truth(fields[k], x.data(), p, value.data())) continue;
-          for (std::size_t c = 0; c < C; ++c)
-            note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - value[c]) / range, e);
-        }
-      }
-      finish_point(e);
-      continue;
-    }
-    const bool same = truth.vertex_count() == m.vertex_count && truth.tet_count() == m.tet_count &&
-                      std::equal(truth.tets.begin(), truth.tets.end(), m.tets);
-    if (!same) {
-      // A mapped element (§6): the evaluated mesh is not the host's, so the truth at each
-      // evaluated vertex is the host's field interpolated barycentrically in the host's tet that
-      // contains the vertex (the nearest tet for boundary vertices a geometry error outside).
-      const mapping::TetLocator locator(truth);
-      double e = 0;
+  }
+
+  // A host with a closed form: the true field at each evaluated vertex's position.
+  void against_closed_form(const std::vector<double>& x, const Sample& truth,
+                           const cadinterp_mesh& m, const FieldTruthAt& field_truth) {
+    double e = 0;
+    for (std::size_t k = 0; k < fields_.size(); ++k) {
+      const auto fi = static_cast<std::size_t>(fields_[k]);
+      if (fi >= truth.fields.size()) continue;
+      const double range = value_range(truth.fields[fi].values);
+      const auto C = static_cast<std::size_t>(truth.fields[fi].components);
+      std::vector<double> value(C);
       for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
         const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
-        double w[4];
-        const int t = locator.locate(p, w);
-        if (t < 0) continue;
-        for (std::size_t k = 0; k < fields.size(); ++k) {
-          const auto fi = static_cast<std::size_t>(fields[k]);
-          if (fi >= truth.fields.size()) continue;
-          const mesh::Field& tf = truth.fields[fi];
-          const auto C = static_cast<std::size_t>(tf.components);
-          const double range = value_range(tf.values);
-          for (std::size_t c = 0; c < C; ++c) {
-            double want = 0;
-            for (std::size_t j = 0; j < 4; ++j)
-              want += w[j] * tf.values[truth.tets[4 * static_cast<std::size_t>(t) + j] * C + c];
-            note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - want) / range, e);
-          }
+        if (!field_truth(fields_[k], x.data(), p, value.data())) continue;
+        for (std::size_t c = 0; c < C; ++c)
+          note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - value[c]) / range, e);
+      }
+    }
+    finish_point(e);
+  }
+
+  // A mapped element (§6): the evaluated mesh is not the host's, so the truth at each evaluated
+  // vertex is the host's field interpolated barycentrically in the host's tet that contains the
+  // vertex (the nearest tet for boundary vertices a geometry error outside).
+  void against_located_truth(const Sample& truth, const cadinterp_mesh& m) {
+    const mapping::TetLocator locator(truth);
+    double e = 0;
+    for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
+      const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
+      double w[4];
+      const int t = locator.locate(p, w);
+      if (t < 0) continue;
+      for (std::size_t k = 0; k < fields_.size(); ++k) {
+        const auto fi = static_cast<std::size_t>(fields_[k]);
+        if (fi >= truth.fields.size()) continue;
+        const mesh::Field& tf = truth.fields[fi];
+        const auto C = static_cast<std::size_t>(tf.components);
+        const double range = value_range(tf.values);
+        for (std::size_t c = 0; c < C; ++c) {
+          double want = 0;
+          for (std::size_t j = 0; j < 4; ++j)
+            want += w[j] * tf.values[truth.tets[4 * static_cast<std::size_t>(t) + j] * C + c];
+          note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - want) / range, e);
         }
       }
-      finish_point(e);
-      continue;
     }
+    finish_point(e);
+  }
+
+  // The host's mesh itself: its field values vertex by vertex.
+  void against_same_mesh(const Sample& truth, const cadinterp_mesh& m) {
     double e = 0;
-    for (std::size_t k = 0; k < fields.size(); ++k) {
-      const auto fi = static_cast<std::size_t>(fields[k]);
+    for (std::size_t k = 0; k < fields_.size(); ++k) {
+      const auto fi = static_cast<std::size_t>(fields_[k]);
       if (fi >= truth.fields.size()) continue;
       const std::vector<double>& tv = truth.fields[fi].values;
       const double range = value_range(tv);
@@ -255,19 +290,38 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     }
     finish_point(e);
   }
-  for (std::size_t k = 0; k < fields.size(); ++k) {
-    const std::vector<double>& f = by_field[k];
-    r.field_max_by_field.push_back(f.empty() ? 0.0 : *std::max_element(f.begin(), f.end()));
-    r.field_p99_by_field.push_back(percentile99(f));
-    r.field_vertex_p99_by_field.push_back(percentile99(std::move(pooled[k])));
-    r.evaluated_mesh_max_by_field.push_back(own_max[k]);
-    r.evaluated_mesh_vertex_p99_by_field.push_back(percentile99(std::move(own_pooled[k])));
+
+  const Host& host_;
+  std::unique_ptr<cadinterp_asset, AssetCloser> asset_;
+  std::unique_ptr<cadinterp_workspace, WorkspaceDestroyer> ws_;
+  std::vector<int> fields_;
+  AccuracyReport r_;
+  std::vector<double> geo_, fld_;
+  std::vector<std::vector<double>> by_field_;  // per field, each compared point's max error
+  std::vector<double> point_field_;            // per field, this point's max error
+  std::vector<std::vector<double>> pooled_;    // per field, every vertex value's error
+  std::vector<std::vector<double>> own_pooled_;
+  std::vector<double> own_max_;
+  Sample evaluated_;
+};
+
+}  // namespace
+
+AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
+                                unsigned seed, const FieldTruthAt& field_truth, bool count_lost,
+                                bool on_evaluated_mesh) {
+  AccuracyRun run(asset_path, host);
+  std::mt19937 rng(seed);
+  const int K = host.dim();
+  for (int i = 0; i < points; ++i) {
+    std::vector<double> x(static_cast<std::size_t>(K));
+    for (int d = 0; d < K; ++d)
+      x[static_cast<std::size_t>(d)] =
+          std::uniform_real_distribution<double>(host.lower()[static_cast<std::size_t>(d)],
+                                                 host.upper()[static_cast<std::size_t>(d)])(rng);
+    run.point(x, field_truth, count_lost, on_evaluated_mesh);
   }
-  if (!geo.empty()) r.geometry_max = *std::max_element(geo.begin(), geo.end());
-  if (!fld.empty()) r.field_max = *std::max_element(fld.begin(), fld.end());
-  r.geometry_p99 = percentile99(geo);
-  r.field_p99 = percentile99(fld);
-  return r;
+  return run.finish();
 }
 
 }  // namespace cadinterp::builder
