@@ -63,7 +63,7 @@ struct Convection {  ///< Robin: q = h (T_ambient - T) into the solid
 };
 
 /// The linear solver for the (symmetric positive definite) FE systems. `automatic` picks by the
-/// measurement recorded in physics_linear_solver.cpp (see examples/physics/README.md): Eigen's
+/// measurement behind physics_linear_solver.cpp's default_solver (docs/physics-solvers.md): Eigen's
 /// SimplicialLDLT below 1000 unknowns, conjugate_gradient_two_level above.
 enum class LinearSolver {
   automatic,

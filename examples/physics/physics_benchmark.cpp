@@ -1,7 +1,7 @@
 // Google Benchmark of physics::solve() on the cantilever box of physics_solver_bench (2:1:1,
 // clamped at x = 0, end load; or held at 0 K at one end with a flux at the other): the home of
-// the speed claims in README.md ("The host-sized case"). physics_solver_bench prints the
-// comparison tables (every solver at every size); this one times chosen cases repeatedly.
+// README.md's results table ("Results"). physics_solver_bench prints the comparison tables
+// (every solver at every size, docs/physics-solvers.md); this one times chosen cases repeatedly.
 //
 //   physics_benchmark --benchmark_filter='two-level'
 //

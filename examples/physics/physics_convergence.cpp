@@ -1,7 +1,8 @@
 // Convergence tables of cadinterp_physics against analytic solutions, at sizes beyond the unit
 // tests: the cantilever (Timoshenko tip deflection), the thick-walled cylinder under internal
 // pressure (Lame, plane strain) and conduction (slab with convection; tube with a logarithmic
-// profile). README.md quotes its output. Usage: physics_convergence [max_level (default 3)]
+// profile). Its output: docs/physics-solvers.md, "Convergence against analytic solutions".
+// Usage: physics_convergence [max_level (default 3)]
 #include <chrono>
 #include <cmath>
 #include <cstdio>

@@ -36,26 +36,17 @@ const char* solver_name(SolverKind kind) {
   return "unknown";
 }
 
-// Measured with physics_solver_bench (README.md has the full table: Release, GCC 12, Debian's
-// reference BLAS under CHOLMOD, 2 cores shared with other jobs, so +-50% noise; cantilever box
-// 2:1:1 clamped at one end; solve seconds, CG to relative residual 1e-10):
-//   dofs              cholmod  eigen-ldlt  cg-ichol  cg-jacobi  cg-two-level
-//   P1 elastic   675    0.029     0.0028    0.0084    0.0060     0.0025
-//   P1 elastic   1.9k   0.046     0.035     0.033     0.016      0.026
-//   P1 elastic  19.6k   3.39      9.25      0.64      0.61       0.32
-//   P1 elastic  62.4k     -         -       5.14      4.10       1.52
-//   P2 elastic  28.6k   6.44        -       2.04      1.98       0.64
-//   P2 elastic  71.4k     -         -      11.7      12.3        2.80
-//   P1 thermal  20.8k   1.44      2.34      0.14      0.058      0.052
-// (cg-two-level since made 2-3x faster on elastic systems by its node-block layout: 0.26 s at
-// 62.4k, 0.63 s for P2 at 71.4k; README.md "The host-sized case". The choice only gets firmer.)
-// 3D meshes give a direct factor O(n^2) flops (large separators) and the reference BLAS gives
-// CHOLMOD's supernodal kernels little, so the iterative solvers win from ~1k unknowns on; of
-// those the two-level one (iterations ~100 instead of ~1/h) wins beyond a few thousand and is
-// never far behind below. Under 1000 unknowns every solver takes milliseconds and a direct one
-// is exact: Eigen's SimplicialLDLT, as fast there as CHOLMOD's simplicial (0.0027) and 10x faster
-// than its supernodal one (whose OpenMP team, 4 threads in Debian's build, costs more than the
-// factorization at that size, and would run inside the builder's own worker threads).
+// The choice by size follows physics_solver_bench's table of every solver at every size
+// (docs/physics-solvers.md, "Every solver by size": cantilever box 2:1:1 clamped at one end, CG
+// to relative residual 1e-10, Debian's reference BLAS under CHOLMOD). 3D meshes give a direct
+// factor O(n^2) flops (large separators) and the reference BLAS gives CHOLMOD's supernodal
+// kernels little (even with OpenBLAS it stays 9-19x slower than the two-level CG at host sizes),
+// so the iterative solvers win from ~1k unknowns on; of those the two-level one (iterations ~100
+// instead of ~1/h) wins beyond a few thousand and is never far behind below. Under 1000 unknowns
+// every solver takes milliseconds and a direct one is exact: Eigen's SimplicialLDLT, as fast
+// there as CHOLMOD's simplicial (0.0027 s at 675 unknowns) and 10x faster than its supernodal
+// one (whose OpenMP team, 4 threads in Debian's build, costs more than the factorization at that
+// size, and would run inside the builder's own worker threads).
 SolverKind default_solver(std::size_t dofs) {
   return dofs < 1000 ? SolverKind::eigen_simplicial_ldlt : SolverKind::cg_two_level;
 }

@@ -1,5 +1,5 @@
 // Times the linear solvers of cadinterp_physics on box meshes of growing size (the measurement
-// behind default_solver() in physics_linear_solver.cpp; README.md quotes its output).
+// behind default_solver() in physics_linear_solver.cpp; its tables are in docs/physics-solvers.md).
 // Usage: physics_solver_bench [max_vertices (default 60000)] [repeats (default 1)] [only (elastic|
 // thermal)] [skip solvers slower than this many seconds at the previous size (default 5)]
 // [min_vertices (default 0)] [solver name, e.g. cg-two-level (default: all)]

@@ -4,18 +4,20 @@
 // Vanek-Mandel-Brezina 1996). Additive: M^-1 r = D^-1 r + P (P^T K P)^-1 P^T r, SPD for any P.
 // The coarse space carries the low-energy modes (bending of the whole part) that make
 // Jacobi-CG's iteration count grow like 1/h: ~100 iterations instead of ~800 at 62k unknowns.
-// (A symmetric multiplicative cycle took fewer iterations, ~45, but two extra products with K
-// per iteration made it slower; a 3x3 block-Jacobi smoother instead of the scalar one saved 2
-// of 101 iterations; see README.md.)
+// Additive with the scalar Jacobi smoother, because the richer variants cost more than they
+// save: a multiplicative (balancing) cycle takes fewer iterations but extra products with K in
+// each, and a 3x3 block-Jacobi smoother saves 2 of ~100 iterations (docs/physics-solvers.md,
+// "The two-level CG's blocks").
 //
 // Everything works on node blocks (C = 3 elastic, 1 thermal unknowns per node), because the
 // solve is memory-bound and the scalar sparse formats spend as many bytes on indices as on
 // values: K is streamed as symmetric 3x3 blocks (half the values, one index per block), P is
 // stored as one dense C x M block per (node, aggregate) pair in single precision (M = 6 modes
 // or 1), and the setup (the smoothing K P_tent and the coarse matrix P^T K P) multiplies these
-// blocks directly rather than through Eigen's scalar sparse-sparse products (which sorted every
-// column; they were 60% of the setup). 2-3x less time on elastic systems, same iterations;
-// measured with physics_solver_bench and physics_benchmark (README.md, "The host-sized case").
+// blocks directly rather than through Eigen's scalar sparse-sparse products, which sort every
+// column and would be most of the setup. On elastic systems the blocks make a solve 2-3x faster
+// than scalar storage, with the same iterations (physics_solver_bench; docs/physics-solvers.md,
+// "The two-level CG's blocks").
 #include <Eigen/Dense>
 #include <Eigen/SparseCholesky>
 
@@ -30,7 +32,8 @@ namespace cadinterp::physics::detail {
 namespace {
 
 // Nodes per aggregate: measured on the cantilever box (physics_solver_bench): 50 gives a
-// coarse matrix too large to factor cheaply, 300 too few modes (iterations double).
+// coarse matrix too large to factor cheaply, 300 too few modes (iterations double)
+// (docs/physics-solvers.md, "The two-level CG's blocks").
 constexpr std::size_t kNodesPerAggregate = 100;
 
 // K as symmetric node blocks: each node's C x C diagonal block, and each pair of neighbouring

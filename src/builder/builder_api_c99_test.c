@@ -52,7 +52,8 @@ int main(void) {
   CHECK(strlen(cadinterp_builder_create_error()) > 0);
   cadinterp_builder_destroy(NULL);
 
-  /* Options that only a run used to refuse are refused by create. */
+  /* Options no run could use (a negative tolerance, simulate_mapped without a simulate callback)
+     are refused by create, before the host is called. */
   {
     const cadinterp_parameter_desc parameter = {"width", "mm", 1.0, 2.0};
     cadinterp_host host;

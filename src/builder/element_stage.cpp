@@ -12,10 +12,10 @@
 #include <string>
 
 #include "builder/stage_report.h"
-#include "mesh/surface_distance.h"
 #include "mapping/canonical_refine.h"
 #include "mapping/interior_solve.h"
 #include "mapping/neighbour_transfer.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::builder {
 
@@ -36,7 +36,7 @@ std::vector<float> to_float(const std::vector<double>& v) {
 // goes through one homeomorphic mapping and errors do not accumulate. The bridge is not free of
 // error, though: p_s^l's vertices are interpolated in p_s^{l'}'s tets, a second discretization
 // on top of the §6 mapping, which the direct route does not add (`cadinterp-mapping-report
-// cubic` measures both routes against the host; src/mapping/README.md). So the direct
+// cubic` measures both routes against the host; docs/mapping-decisions.md, "Fields"). So the direct
 // mapping is the rule and the bridge the fallback where it fails (e.g. a neighbour sample whose
 // layout cannot be paired with this element's canonical mesh while both pair with the shared
 // sample's). NeighbourTransfer::Always exists to measure the bridge. Which neighbour and shared

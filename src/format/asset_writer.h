@@ -21,7 +21,7 @@ enum class FieldLocation : std::uint8_t { Vertex = 0, Tet = 1 };
 
 struct FieldInfo {
   // Constructors rather than an aggregate: callers that brace-initialize the first three members
-  // (the builder) keep compiling without -Wmissing-field-initializers now that `unit` follows.
+  // (the builder) compile without -Wmissing-field-initializers, `unit` defaulting to empty.
   FieldInfo() = default;
   FieldInfo(std::string name_, FieldLocation location_, int components_, std::string unit_ = {})
       : name(std::move(name_)),

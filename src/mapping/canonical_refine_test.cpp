@@ -10,10 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "analytic_host.h"
-#include "mesh/host_call.h"
 #include "mapping/interior_solve.h"
 #include "mapping/mapping_quality.h"
+#include "mapping/mapping_test_util.h"
 #include "mapping/mesh_mapper.h"
 
 namespace {
@@ -21,12 +20,7 @@ namespace {
 using namespace cadinterp;
 
 mesh::Sample bracket(const char* options, const std::vector<double>& x) {
-  const char* err = nullptr;
-  const cadinterp_host* host = cadinterp_host_entry("bracket", options, &err);
-  if (!host) throw std::runtime_error(err ? err : "no host");
-  mesh::Sample s = mesh::Host(*host).evaluate(x.data());
-  if (!s.feasible) throw std::runtime_error("infeasible: " + s.message);
-  return s;
+  return mapping_test::Model("bracket", options).at(x);
 }
 
 // Sum over tets of a per-tet field times the tet's volume, and the solid's volume.

@@ -37,8 +37,9 @@ Mat<D> edges(const std::vector<double>& x, const std::uint32_t* q) {
 // c^(-2/D), the shape term's factor, for c > 0. For tets, y = c^(-1/3) from a bit-level first
 // guess (the exponent divided by -3, a few percent off) and Newton's iteration
 // y <- y (4 - c y^3) / 3, which needs no division and doubles the digits each step (four steps
-// reach rounding). libm's pow and cbrt (with frexp and scalbn) were a fifth and a quarter of the
-// untangler's time (profiles of press pair 88 and mapping_bench, README round 13).
+// reach rounding). This is the untangler's innermost call, where libm's pow and cbrt (with frexp
+// and scalbn) cost a fifth and a quarter of its time; without them mapping_bench runs 15 % more
+// tet evaluations per second (docs/mapping-decisions.md, "Energy without `pow`").
 template <int D>
 double inverse_power_p(double c, double inverse_c);
 template <>
@@ -274,9 +275,10 @@ std::size_t count_inverted(const std::vector<double>& x, const std::vector<std::
 // One attempt with the given free vertices: the eps schedule of Garanzha et al. (2021, §3.2),
 // with a floor of 0.5 on sigma where the paper has 0.1. The energy sums over every active
 // element, most of them valid, so one minimisation rarely gains 10 % of it and sigma sits at its
-// floor: measured on the OpenCASCADE press (pair 88 across its change, 263 tets inverted after
-// the harmonic solve), floor 0.1 took 8300 evaluations to reach 28, floor 0.5 took 2750 to
-// reach 7. Leaves x at the state with the fewest inverted elements.
+// floor. The higher floor keeps the steps large enough to make progress: on an OpenCASCADE press
+// pair it leaves a quarter of the inverted tets that 0.1 leaves, in a third of the evaluations
+// (docs/mapping-decisions.md, "Interior and untangling"). Leaves x at the state with the fewest
+// inverted elements.
 template <int D>
 void attempt(Energy<D>& energy, const std::vector<double>& x,
              const std::vector<std::uint32_t>& elements, double min_measure,

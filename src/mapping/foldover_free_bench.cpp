@@ -1,9 +1,10 @@
-// Cost of the foldover-free untangler (foldover_free.h, mapping step 4c), which dominates the
-// mappings that need it (README, rounds 12-13): the harmonic interior of a unit cube on an n^3
-// Kuhn grid whose boundary is twisted by two full turns (the unit test's case, finer), untangled
-// within a fixed evaluation budget. Counters: tet evaluations per second (the number to
-// compare across changes of the energy's code, since the path the minimiser takes may change
-// with the last digits), evaluations, tets, inverted tets before and after.
+// Cost of the foldover-free untangler (foldover_free.h, the mapping pipeline's stage 5), which
+// dominates the mappings that need it (docs/mapping-decisions.md, "Interior and untangling"): the
+// harmonic interior of a unit cube on an n^3 Kuhn grid whose boundary is twisted by two full
+// turns (the unit test's case, finer), untangled within a fixed evaluation budget. Counters: tet
+// evaluations per second (the number to compare across changes of the energy's code, since the
+// path the minimiser takes may change with the last digits), evaluations, tets, inverted tets
+// before and after.
 #include <benchmark/benchmark.h>
 
 #include <cmath>

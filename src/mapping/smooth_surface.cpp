@@ -74,7 +74,7 @@ SmoothSurface::SmoothSurface(const mesh::Sample& s, double alpha) : s_(&s), alph
     }
   }
   // A face tag that folds sharply at a vertex (a constructed mesh or a host that tags several
-  // B-rep faces alike: measured on the voxel plate of mapping_test.cpp, one tag per hole wall
+  // B-rep faces alike: measured on the voxel plate of mapping_test_util.h, one tag per hole wall
   // round its corners) has no tangent plane there: its normal is dropped, and points of its
   // triangles at that vertex stay on the flat triangles.
   std::vector<std::vector<std::pair<std::int32_t, Vec>>> unit_of(normals_);

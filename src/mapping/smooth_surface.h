@@ -5,8 +5,9 @@
 // becomes flat there. Evaluating the same barycentric coordinates on Phong tessellation
 // (Boubekeur & Alexa 2008) of the source keeps the convexity the points had on the true
 // surface, and the mapped boundary follows curved faces (measured: the wrench's and bracket's
-// Hausdorff distance drops by a third to a half). It does not repair the OpenCASCADE mount's
-// remaining inverted tets, which lie across CAD edges (src/mapping/README.md, round 5).
+// Hausdorff distance drops by a third to a half). It does not repair inverted tets that lie across
+// CAD edges; the mapper retries those on the flat triangles (docs/mapping-decisions.md, "Surface
+// map").
 //
 // Smoothness is per B-rep face: vertex normals average only the triangles of one face tag, so a
 // sharp CAD edge is never rounded. A point inside a triangle uses its face's normals; a point on
