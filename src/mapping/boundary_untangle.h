@@ -1,8 +1,8 @@
-// Untangling of tets whose vertices are all on the boundary (paper §6.4, requirement 4). The
-// surface map pins every boundary vertex, so a thin tet spanning two faces that meet at a sharp
-// edge (two vertices on each face) can come out folded, and no interior solve can repair it: no
-// vertex of it is free. Here such vertices move, but only within their own freedom on the source
-// surface: a vertex inside a patch in the patch's 2-D parameter domain (its source disk,
+// Untangling of tets whose vertices are all on the boundary (paper §6.2 (interior mapping),
+// requirement 4). The surface map pins every boundary vertex, so a thin tet spanning two faces that
+// meet at a sharp edge (two vertices on each face) can come out folded, and no interior solve can
+// repair it: no vertex of it is free. Here such vertices move, but only within their own freedom on
+// the source surface: a vertex inside a patch in the patch's 2-D parameter domain (its source disk,
 // re-evaluated through the composed map onto the source triangles), a vertex on a patch boundary
 // path along that path (1-D arc length), and control points (anchors) not at all. Every position
 // this produces is a point of the source surface, so the surface map's Hausdorff bound holds.

@@ -301,8 +301,8 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
   return cut;
 }
 
-// §6.1: correspondence by equal IDs only; the anchors are the matched points that are mesh
-// vertices on both sides.
+// §6.2, CAD referencing: correspondence by equal IDs only; the anchors are the matched points
+// that are mesh vertices on both sides.
 bool match_anchors(MappingState& st) {
   const auto& source = st.source;
   const auto& canonical = st.canonical;

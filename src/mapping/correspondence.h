@@ -1,7 +1,8 @@
-// Correspondence between two samples' references (paper §6.1, requirement 1): control points are
-// matched ONLY by equal IDs, and a CAD edge exists in both samples when its paths carry the same
-// edge key. Face-tag borders that lie on an edge of only one sample are not cut by the common
-// layout, so faces that split or merge across the parameter box become one patch on both sides.
+// Correspondence between two samples' references (paper §6.2 (CAD referencing), requirement 1):
+// control points are matched ONLY by equal IDs, and a CAD edge exists in both samples when its
+// paths carry the same edge key. Face-tag borders that lie on an edge of only one sample are not
+// cut by the common layout, so faces that split or merge across the parameter box become one patch
+// on both sides.
 #pragma once
 
 #include <cstdint>
@@ -9,8 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "mesh/sample.h"
 #include "mapping/surface.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 

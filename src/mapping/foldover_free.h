@@ -1,8 +1,8 @@
-// Global untangling of the interior (paper §6.4, requirement 4: no inverted tets). The harmonic
-// solve (interior_solve.h) places every interior vertex at once but knows nothing of
-// orientation; where the boundary moves far (a fillet 38.5 mm on one side, 8.1 mm on the other)
-// it folds whole regions over, and then no single vertex has a place that untangles its star:
-// the local untanglers (interior_solve.cpp, boundary_untangle.h) find none.
+// Global untangling of the interior (paper §6.2 (interior mapping), requirement 4: no inverted
+// tets). The harmonic solve (interior_solve.h) places every interior vertex at once but knows
+// nothing of orientation; where the boundary moves far (a fillet 38.5 mm on one side, 8.1 mm on the
+// other) it folds whole regions over, and then no single vertex has a place that untangles its
+// star: the local untanglers (interior_solve.cpp, boundary_untangle.h) find none.
 //
 // Here all free vertices move together, minimising the regularised elastic energy of Garanzha,
 // Kaporin, Kudryavtseva, Protais, Ray and Sokolov ("Foldover-free maps in 50 lines of code",

@@ -6,9 +6,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "mesh/sample.h"
 #include "mapping/foldover_free.h"
 #include "mapping/mapping_state.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -197,11 +197,11 @@ TetQuality tet_quality(const std::vector<double>& vertices,
 
 namespace {
 
-// Local untangling after the harmonic interior (§6.4): a large shape change can leave a few
-// slivers of a host's mesh inverted (measured on the OpenCASCADE wrench: 1 or 2 of ~13000 tets
-// over random pairs across the whole box). Each interior vertex of an inverted tet is moved to
-// the mean of its tet neighbours' positions, in a fixed order, and the move is kept only when it
-// leaves fewer inverted tets around that vertex and inverts none that was valid. Boundary
+// Local untangling after the harmonic interior (§6.2 (interior mapping)): a large shape change can
+// leave a few slivers of a host's mesh inverted (measured on the OpenCASCADE wrench: 1 or 2 of
+// ~13000 tets over random pairs across the whole box). Each interior vertex of an inverted tet is
+// moved to the mean of its tet neighbours' positions, in a fixed order, and the move is kept only
+// when it leaves fewer inverted tets around that vertex and inverts none that was valid. Boundary
 // vertices never move (the surface map is the mapping). Returns the tets still inverted.
 std::size_t untangle(const std::vector<std::uint32_t>& tets, const std::vector<char>& fixed,
                      double min_six_volume, std::vector<double>& x) {
@@ -303,9 +303,9 @@ void untangle_whole(MappingState& st, TetQuality& q) {
   if (r.inverted_after < r.inverted_before) q = tet_quality(out.vertices, canonical.tets);
 }
 
-// §6.4: the interior follows: the P1-harmonic solve (exact on affine maps), untangled; where
-// tets stay inverted, once more in MapOptions::fallback_steps boundary increments with
-// volume-stiffened tets (measured on the OpenCASCADE wrench, 10 random pairs: one harmonic
+// §6.2 (interior mapping): the interior follows: the P1-harmonic solve (exact on affine maps),
+// untangled; where tets stay inverted, once more in MapOptions::fallback_steps boundary increments
+// with volume-stiffened tets (measured on the OpenCASCADE wrench, 10 random pairs: one harmonic
 // solve 5 mapped, 4 increments alone 5, stiffening alone 5 (exponent 1) or 4 (2), both 8).
 bool solve_interior(MappingState& st, TetQuality& q) {
   const auto& options = st.options;

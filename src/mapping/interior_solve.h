@@ -1,6 +1,6 @@
-// Moves the canonical mesh's interior vertices to follow its mapped boundary (paper §6.4,
-// requirement 4): the displacement d = mapped - canonical is harmonic in the P1 (linear finite
-// element) sense on the canonical tets, with the boundary displacement as Dirichlet data. P1
+// Moves the canonical mesh's interior vertices to follow its mapped boundary (paper §6.2 (interior
+// mapping), requirement 4): the displacement d = mapped - canonical is harmonic in the P1 (linear
+// finite element) sense on the canonical tets, with the boundary displacement as Dirichlet data. P1
 // harmonic extension reproduces affine maps exactly, which is the plate's case (samples differ
 // by a scaling), and stays smooth otherwise; inverted tets are detected, never emitted.
 #pragma once

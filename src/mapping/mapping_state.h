@@ -1,12 +1,13 @@
 // The state one mapping (map_sample, paper §6) carries from stage to stage, and the stages'
 // entry points. Internal to cadinterp_mapping. Each stage reads what the stages before it wrote
-// and writes its own part; map_sample (mesh_mapper.cpp) calls them in the order of §6:
-//   match_anchors          correspondence.cpp  §6.1 anchors: control points with equal IDs
-//   build_layout           layout_build.cpp    §6.2 common layout; patches with holes cut into
-//                                              disks in hole_split.cpp, hole_new_anchors.cpp
-//   map_surface            surface_map.cpp     §6.3 canonical boundary onto the source surface
-//   solve_interior         interior_solve.cpp  §6.4 harmonic interior, locally untangled
-//   untangle_mapping       untangling.cpp      §6.4 what stays inverted: release, boundary, whole
+// and writes its own part; map_sample (mesh_mapper.cpp) calls them in the order of §6.2's
+// paragraphs (CAD referencing, surface mapping, interior mapping):
+//   match_anchors     correspondence.cpp  anchors: control points with equal IDs
+//   build_layout      layout_build.cpp    common layout; patches with holes cut into disks in
+//                                         hole_split.cpp, hole_new_anchors.cpp
+//   map_surface       surface_map.cpp     canonical boundary onto the source surface
+//   solve_interior    interior_solve.cpp  harmonic interior, locally untangled
+//   untangle_mapping  untangling.cpp      what stays inverted: release, boundary, whole
 // One state belongs to one call of map_sample on one thread; it holds references to the call's
 // samples, options, output and message, which must outlive it.
 #pragma once
@@ -18,8 +19,6 @@
 #include <string>
 #include <vector>
 
-#include "mesh/mapper.h"
-#include "mesh/sample.h"
 #include "mapping/boundary_untangle.h"
 #include "mapping/correspondence.h"
 #include "mapping/interior_solve.h"
@@ -28,6 +27,8 @@
 #include "mapping/patch_layout.h"
 #include "mapping/smooth_surface.h"
 #include "mapping/surface.h"
+#include "mesh/mapper.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -44,14 +45,15 @@ struct MappingState {
   std::string& why;
   Surface ss, cs;  ///< the source's and the canonical's boundary surfaces
 
-  // §6.1 (match_anchors). Points and paths are placed on the mesh (cadinterp_builder.h); the
-  // tolerances only absorb rounding.
+  // §6.2, CAD referencing (match_anchors). Points and paths are placed on the mesh
+  // (cadinterp_builder.h); the tolerances only absorb rounding.
   double src_tol = 0, can_tol = 0;
   Correspondence corr;
   std::size_t dropped_anchors = 0;  ///< matched points not at a mesh vertex on both sides
 
-  // §6.2 (build_layout). The anchors' positions per side (pointers into corr.anchors, renewed
-  // by refresh_anchors whenever an anchor is added or removed).
+  // §6.2, surface mapping: the common patch layout (build_layout). The anchors' positions per side
+  // (pointers into corr.anchors, renewed by refresh_anchors whenever an anchor is added or
+  // removed).
   std::vector<const double*> src_anchor, can_anchor;
   std::set<Id> src_keys, can_keys;                                 ///< CAD edges cut, per side
   std::vector<std::vector<std::uint32_t>> src_traced, can_traced;  ///< paths traced, per side
@@ -86,7 +88,7 @@ struct MappingState {
   bool add_new_anchor(const std::vector<std::uint32_t>& chain_s,
                       const std::vector<std::uint32_t>& chain_c);
 
-  // §6.3 (map_surface).
+  // §6.2, surface mapping (map_surface).
   std::size_t V = 0;                       ///< canonical vertices
   std::vector<char> on_surface, assigned;  ///< per canonical vertex
   std::vector<SurfacePoint> where;         ///< per canonical boundary vertex, on the source
@@ -104,7 +106,7 @@ struct MappingState {
   /// flat triangles.
   void place_point(const SurfacePoint& pt, double* x) const;
 
-  // §6.4 (solve_interior, untangle_mapping).
+  // §6.2, interior mapping (solve_interior, untangle_mapping).
   std::vector<double> surface_map;  ///< out.vertices as the surface map left them
   TetQuality q;                     ///< of out.vertices
   /// More than MapOptions::untangle_max_fraction of the tets inverted after the first solve:

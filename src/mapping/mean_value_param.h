@@ -1,5 +1,5 @@
-// Floater's mean-value parametrization of a disk patch onto the unit disk (paper §6.3,
-// requirement 3): the boundary loop is fixed on the circle, every interior vertex is the
+// Floater's mean-value parametrization of a disk patch onto the unit disk (paper §6.2 (surface
+// mapping), requirement 3): the boundary loop is fixed on the circle, every interior vertex is the
 // mean-value-weighted average of its neighbours. With a convex boundary the result is a valid
 // (fold-free) embedding (Floater 2003), which is what lets one disk be located in the other.
 #pragma once

@@ -26,8 +26,7 @@ bool same_field_layout(const mesh::Sample& a, const mesh::Sample& b) {
 }
 
 // The samples' validity, or false with why.
-bool check_inputs(const mesh::Sample& source, const mesh::Sample& canonical,
-                  std::string& why) {
+bool check_inputs(const mesh::Sample& source, const mesh::Sample& canonical, std::string& why) {
   if (!source.feasible || !canonical.feasible) {
     why = "mapping: both samples must be feasible";
     return false;
@@ -84,9 +83,8 @@ std::string inverted_message(const MappingState& st) {
 
 }  // namespace
 
-bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical,
-                mesh::MappedSample& out, std::string& why, MapStats* stats,
-                const MapOptions& options) {
+bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+                std::string& why, MapStats* stats, const MapOptions& options) {
   why.clear();
   if (!check_inputs(source, canonical, why)) return false;
   MappingState st(source, canonical, options, out, why);
@@ -94,14 +92,15 @@ bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical,
     why = "mapping: " + why;
     return false;
   }
-  // §6.1: control points matched by equal IDs only (requirement 1).
+  // §6.2 (CAD referencing): control points matched by equal IDs only (requirement 1).
   if (!match_anchors(st)) return false;
   // §6.2: the common layout, patches bounded by common paths and paired by their anchors.
   if (!build_layout(st)) return false;
-  // §6.3: per patch, both sides onto one disk; every canonical boundary vertex gets a point of
-  // the source surface.
+  // §6.2 (surface mapping): per patch, both sides onto one disk; every canonical boundary vertex
+  // gets a point of the source surface.
   if (!map_surface(st)) return false;
-  // §6.4: the interior follows: the P1-harmonic solve (exact on affine maps), untangled.
+  // §6.2 (interior mapping): the interior follows: the P1-harmonic solve (exact on affine maps),
+  // untangled.
   st.surface_map = out.vertices;
   // Regions folded over as a whole (foldover_free.h): the interior vertices near the tets still
   // inverted move together; kept when fewer stay inverted. All calls of one mapping share
@@ -113,8 +112,8 @@ bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical,
   st.folded = static_cast<double>(q.inverted) >
               options.untangle_max_fraction * static_cast<double>(canonical.tet_count());
   const bool folded = st.folded;
-  // §6.4: where tets stay inverted, the surface map relaxed across traced paths, the boundary
-  // moved within the source surface, the interior untangled as a whole.
+  // §6.2 (interior mapping): where tets stay inverted, the surface map relaxed across traced
+  // paths, the boundary moved within the source surface, the interior untangled as a whole.
   if (!untangle_mapping(st)) return false;
   if (stats) {
     stats->matched_points = st.corr.anchors.size();

@@ -1,16 +1,18 @@
 // The mesh mapper (paper §6): a source sample's geometry and fields in the combinatorics of an
-// element's canonical mesh, through their references (builder/mapping_hook.h). map_sample
-// (mesh_mapper.cpp) runs the stages of §6 in order on one state (mapping_state.h):
-//   correspondence.cpp    §6.1 control points matched by equal IDs; CAD edges present in both
-//   layout_build.cpp      §6.2 common layout: patches bounded by common CAD paths, paired by
-//                         anchors (patch_layout.cpp, layout_paths.cpp, geodesic.cpp); patches
-//                         with holes cut into disks (hole_split.cpp, hole_new_anchors.cpp)
-//   surface_map.cpp       §6.3 both sides of a patch onto one disk (mean_value_param.cpp, Floater),
-//                         composed, relaxed; placed on the smooth source (smooth_surface.cpp)
-//   interior_solve.cpp    §6.4 P1-harmonic interior with the surface map as Dirichlet data
-//   untangling.cpp        §6.4 what stays inverted: traced paths released (path_release.cpp),
-//                         boundary moved on the source (boundary_untangle.cpp), the interior
-//                         untangled as a whole (foldover_free.cpp)
+// element's canonical mesh, through their references (mesh/mapper.h). map_sample
+// (mesh_mapper.cpp) runs the stages of §6.2 in order on one state (mapping_state.h):
+//   correspondence.cpp    CAD referencing: control points matched by equal IDs; CAD edges in both
+//   layout_build.cpp      surface mapping: the common layout, patches bounded by common CAD paths,
+//                         paired by anchors (patch_layout.cpp, layout_paths.cpp, geodesic.cpp);
+//                         patches with holes cut into disks (hole_split.cpp, hole_new_anchors.cpp)
+//   surface_map.cpp       surface mapping: both sides of a patch onto one disk (Floater's
+//                         mean_value_param.cpp), composed, relaxed; placed on the smooth source
+//                         (smooth_surface.cpp)
+//   interior_solve.cpp    interior mapping: P1-harmonic with the surface map as Dirichlet data
+//   untangling.cpp        interior mapping, what stays inverted: traced paths released
+//                         (path_release.cpp), boundary moved on the source
+//                         (boundary_untangle.cpp), the interior untangled as a whole
+//                         (foldover_free.cpp)
 //   field_transfer.cpp    per-vertex / per-tet fields at the mapped points
 // and, after a mapping, canonical_refine.cpp: the canonical's boundary bisected where a mapped
 // term departs from its own boundary (the builder's canonical_refinement).
@@ -94,14 +96,14 @@ struct MapOptions {
 /// Maps `source` onto `canonical`'s combinatorics. False with `why` when the references do not
 /// allow it (no common control points, a patch that is not a disk, patches without
 /// counterpart) or when the result would contain inverted tets. `stats` may be null.
-bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical,
-                mesh::MappedSample& out, std::string& why, MapStats* stats = nullptr,
+bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+                std::string& why, MapStats* stats = nullptr,
                 const MapOptions& options = MapOptions());
 
 class MeshMapper final : public mesh::Mapper {
  public:
-  bool map(const mesh::Sample& source, const mesh::Sample& canonical,
-           mesh::MappedSample& out, std::string& why) const override {
+  bool map(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+           std::string& why) const override {
     return map_sample(source, canonical, out, why, nullptr);
   }
   // Recorded in every asset's provenance: it names the mapping's results, so it changes (the

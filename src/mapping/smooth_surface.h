@@ -1,8 +1,8 @@
-// A smooth reconstruction of a sample's boundary for placing mapped vertices (paper §6.3).
-// The source boundary is a chordal approximation of the CAD surface: a canonical vertex placed
-// on the flat source triangles lies up to the chordal sag inside a convex face, and a thin "cap"
-// tet of a finer canonical mesh (four vertices on one curved face, all in one source triangle)
-// becomes flat there. Evaluating the same barycentric coordinates on Phong tessellation
+// A smooth reconstruction of a sample's boundary for placing mapped vertices (paper §6.2 (surface
+// mapping)). The source boundary is a chordal approximation of the CAD surface: a canonical vertex
+// placed on the flat source triangles lies up to the chordal sag inside a convex face, and a thin
+// "cap" tet of a finer canonical mesh (four vertices on one curved face, all in one source
+// triangle) becomes flat there. Evaluating the same barycentric coordinates on Phong tessellation
 // (Boubekeur & Alexa 2008) of the source keeps the convexity the points had on the true
 // surface, and the mapped boundary follows curved faces (measured: the wrench's and bracket's
 // Hausdorff distance drops by a third to a half). It does not repair inverted tets that lie across
@@ -24,8 +24,8 @@
 #include <utility>
 #include <vector>
 
-#include "mesh/sample.h"
 #include "mapping/surface.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 

@@ -1,9 +1,9 @@
-// The surface map (paper §6.3): every canonical boundary vertex gets a point of the source
-// surface. Per patch, both sides onto one disk (mean_value_param.h), composed; the inner vertices
-// then relaxed towards the canonical's own shape on the source, or a flat patch unfolded in its
-// plane; each vertex's freedom recorded for the boundary untangling; the points placed in 3-D on
-// the source's smooth reconstruction. Owns map_surface and the point helpers the later stages
-// share (loop_point, disk_point, position_of, MappingState::place_point).
+// The surface map (paper §6.2 (surface mapping)): every canonical boundary vertex gets a point of
+// the source surface. Per patch, both sides onto one disk (mean_value_param.h), composed; the inner
+// vertices then relaxed towards the canonical's own shape on the source, or a flat patch unfolded
+// in its plane; each vertex's freedom recorded for the boundary untangling; the points placed in
+// 3-D on the source's smooth reconstruction. Owns map_surface and the point helpers the later
+// stages share (loop_point, disk_point, position_of, MappingState::place_point).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -13,9 +13,9 @@
 
 #include <Eigen/Dense>
 
-#include "mesh/surface_distance.h"
 #include "mapping/foldover_free.h"
 #include "mapping/mapping_state.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::mapping {
 
@@ -46,12 +46,12 @@ struct LoopFrame {
   double arc(std::size_t k, double f) const { return origin + rel[k] + f * seg[k]; }
 };
 
-// In-patch relaxation (§6.3). Composing the two disk maps places a canonical vertex where the
-// canonical's and the source's parametrizations agree, not where the canonical mesh's own
-// spacing would put it on the source: on a curved face whose two samples are parametrized with
-// different distortion, vertices slide within the face, triangles stretch along the curvature
-// and their chords cut deeper into it (the bracket's Hausdorff at 1.01e-3 of its diagonal).
-// Each sweep moves every inner vertex towards the mean-value-weighted average of its
+// In-patch relaxation (§6.2 (surface mapping)). Composing the two disk maps places a canonical
+// vertex where the canonical's and the source's parametrizations agree, not where the canonical
+// mesh's own spacing would put it on the source: on a curved face whose two samples are
+// parametrized with different distortion, vertices slide within the face, triangles stretch along
+// the curvature and their chords cut deeper into it (the bracket's Hausdorff at 1.01e-3 of its
+// diagonal). Each sweep moves every inner vertex towards the mean-value-weighted average of its
 // neighbours' mapped positions, with the weights of the canonical mesh (Floater 2003, the same
 // weights as its disk map), so the fixed point is the canonical mesh's local shape laid onto the
 // source. The 3-D step is taken in the source disk through the containing triangle's affine
@@ -59,8 +59,8 @@ struct LoopFrame {
 // fixed. Where both samples are flat and equal the canonical positions are already the fixed
 // point (mean-value weights reproduce linear functions), so nothing moves. Jacobi sweeps in a
 // fixed order: deterministic.
-void relax_in_patch(const mesh::Sample& source, const mesh::Sample& canonical,
-                    const DiskMap& cd, const DiskMap& sd, const DiskLocator& locator,
+void relax_in_patch(const mesh::Sample& source, const mesh::Sample& canonical, const DiskMap& cd,
+                    const DiskMap& sd, const DiskLocator& locator,
                     const std::vector<std::size_t>& inner, const std::vector<SurfacePoint>& where,
                     int iterations, std::vector<double>& uv) {
   if (iterations <= 0 || inner.empty()) return;
@@ -140,19 +140,19 @@ void relax_in_patch(const mesh::Sample& source, const mesh::Sample& canonical,
   }
 }
 
-// Flat patches, and patches nearly so (§6.3). The composed disk maps are one-to-one in the disk,
-// but a straight canonical triangle between three composed points is not the image of its disk
-// triangle: where the source's disk map is far from linear across one canonical triangle (a wide
-// face against a narrow strip of the same face: the OpenCASCADE press's plate beside fillets of 8.1
-// and 38.5 mm, 81 triangles folded, and every tet on them inverted whatever the interior does)
-// those triangles fold. Where the source patch projects onto its mean plane without any triangle
-// turning over, the projection is a chart in which the folds are removed directly: the patch's
-// inner vertices move in the plane (untangle_foldover_free_planar, the canonical triangles'
-// shapes as reference; loop vertices fixed) and are lifted back onto the source triangles
-// through the chart. Writes each inner local vertex's surface point and source-disk
-// coordinates; false where no such chart exists.
-bool planar_placement(const mesh::Sample& source, const mesh::Sample& canonical,
-                      const DiskMap& cd, const DiskMap& sd, const std::vector<std::size_t>& inner,
+// Flat patches, and patches nearly so (§6.2 (surface mapping)). The composed disk maps are
+// one-to-one in the disk, but a straight canonical triangle between three composed points is not
+// the image of its disk triangle: where the source's disk map is far from linear across one
+// canonical triangle (a wide face against a narrow strip of the same face: the OpenCASCADE press's
+// plate beside fillets of 8.1 and 38.5 mm, 81 triangles folded, and every tet on them inverted
+// whatever the interior does) those triangles fold. Where the source patch projects onto its mean
+// plane without any triangle turning over, the projection is a chart in which the folds are removed
+// directly: the patch's inner vertices move in the plane (untangle_foldover_free_planar, the
+// canonical triangles' shapes as reference; loop vertices fixed) and are lifted back onto the
+// source triangles through the chart. Writes each inner local vertex's surface point and
+// source-disk coordinates; false where no such chart exists.
+bool planar_placement(const mesh::Sample& source, const mesh::Sample& canonical, const DiskMap& cd,
+                      const DiskMap& sd, const std::vector<std::size_t>& inner,
                       std::vector<SurfacePoint>& at, std::vector<double>& uv) {
   const std::size_t ns = sd.vertices.size(), n = cd.vertices.size();
   if (ns < 3 || inner.empty()) return false;
@@ -582,8 +582,8 @@ void MappingState::place_point(const SurfacePoint& pt, double* x) const {
     position_of(source, pt, x);
 }
 
-// §6.3: per patch, both sides onto one disk; every canonical surface vertex gets a point of the
-// source surface, and its position in 3-D.
+// §6.2 (surface mapping): per patch, both sides onto one disk; every canonical surface vertex gets
+// a point of the source surface, and its position in 3-D.
 bool map_surface(MappingState& st) {
   const auto& source = st.source;
   const auto& canonical = st.canonical;

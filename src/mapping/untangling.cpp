@@ -1,7 +1,8 @@
-// What stays inverted after the interior solve (paper §6.4): the surface map relaxed across the
-// traced layout paths (path_release.h), boundary vertices moved within the source surface
-// (boundary_untangle.h), and the interior untangled as a whole (foldover_free.h), each followed
-// by the interior solve and kept where fewer tets stay inverted. Owns untangle_mapping.
+// What stays inverted after the interior solve (paper §6.2 (interior mapping)): the surface map
+// relaxed across the traced layout paths (path_release.h), boundary vertices moved within the
+// source surface (boundary_untangle.h), and the interior untangled as a whole (foldover_free.h),
+// each followed by the interior solve and kept where fewer tets stay inverted. Owns
+// untangle_mapping.
 #include <cmath>
 #include <cstdint>
 #include <memory>
