@@ -12,8 +12,8 @@
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
+#include "capi/capi_guard.h"
 #include "format/asset_reader.h"
-#include "runtime/capi_guard.h"
 #include "runtime/evaluate.h"
 #include "runtime/runtime_objects.h"
 

@@ -19,9 +19,9 @@
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
+#include "capi/capi_guard.h"
 #include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
-#include "runtime/capi_guard.h"
 #include "runtime/mesh_metrics.h"
 
 namespace {
