@@ -1,8 +1,8 @@
 // The C ABI of include/cadinterp/cadinterp.h: argument checks, the exception guard, and the
 // queries answered from the asset's metadata. The objects behind the handles are in
 // runtime_objects.h, the element cache in element_cache.h, the evaluation bodies in evaluate.h.
-// Every exported body that can throw runs between CADINTERP_CATCH_BEGIN and _END (capi_guard.h),
-// which map exceptions to status codes: nothing crosses the ABI.
+// Every exported body that can throw runs between CADINTERP_CATCH_BEGIN and _END
+// (capi/capi_guard.h), which map exceptions to status codes: nothing crosses the ABI.
 #include <algorithm>
 #include <cmath>
 #include <functional>

@@ -683,7 +683,7 @@ void Run::vjp(PointCalls& c) {
   }
 }
 
-// properties_eval, with and without gradients.
+// eval_properties, with and without gradients.
 void Run::properties(const PointCalls& c) {
   const Script& s = c.s;
   cadinterp_properties props;
@@ -699,7 +699,7 @@ void Run::properties(const PointCalls& c) {
   // tiny parameter range): that refusal names itself.
   CHECK(st == (properties_args_ok ? c.base : CADINTERP_E_INVALID_ARGUMENT) ||
             (properties_args_ok && c.base == CADINTERP_OK && c.overflowed(st)),
-        "properties_eval: %s, eval %s", name(st), name(c.base));
+        "eval_properties: %s, eval %s", name(st), name(c.base));
   if (st == CADINTERP_OK) {
     // With a moderate density and direction, volume, mass and areas are sums of products of
     // finite floats in double: finite. Centroid and inertia divide by the volume (NaN when it
@@ -723,9 +723,9 @@ void Run::properties(const PointCalls& c) {
       }
     }
   } else {
-    check_failure(c.ws, st, "properties_eval");
-    CHECK(poisoned(&props), "properties_eval wrote its output on failure");
-    for (const auto& pg : pgrad) CHECK(poisoned(&pg), "properties_eval wrote its gradient");
+    check_failure(c.ws, st, "eval_properties");
+    CHECK(poisoned(&props), "eval_properties wrote its output on failure");
+    for (const auto& pg : pgrad) CHECK(poisoned(&pg), "eval_properties wrote its gradient");
   }
 }
 

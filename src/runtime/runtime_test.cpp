@@ -447,7 +447,7 @@ TEST(Runtime, PropertiesRefuseBadDensityAndDirection) {
       << cadinterp_workspace_error(o->ws);
   EXPECT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, inf_dir, &p, nullptr),
             CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_EQ(std::memcmp(&p, &before, sizeof p), 0) << "a failed properties_eval wrote its output";
+  EXPECT_EQ(std::memcmp(&p, &before, sizeof p), 0) << "a failed eval_properties wrote its output";
   ASSERT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, dir, &p, g), CADINTERP_OK);
   EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
 }
