@@ -121,7 +121,7 @@ void run_case(const fs::path& dir) {
       in >> grad_tol;
     } else if (key == "point") {
       x = numbers(in);
-      if (!asset || static_cast<int>(x.size()) != cadinterp_dim(asset))
+      if (!asset || static_cast<int>(x.size()) != cadinterp_parameter_count(asset))
         throw Failure("point dimension");
     } else if (key == "status") {
       std::string s;

@@ -210,7 +210,7 @@ class Asset {
     this.#data = data;
 
     /** Number of parameters K. */
-    this.dim = m._cadinterp_dim(asset);
+    this.dim = m._cadinterp_parameter_count(asset);
     /** Basis degree: 1 (linear) or 3 (cubic). */
     this.degree = m._cadinterp_degree(asset);
     /** Elements of the K-d tree. */
@@ -285,7 +285,7 @@ class Asset {
       }
       /** [{ x: Float64Array, message }] where the builder's host failed. */
       this.infeasiblePoints = infeasible;
-      this.#check(m._cadinterp_get_provenance(asset, info), null);
+      this.#check(m._cadinterp_asset_provenance(asset, info), null);
       const u32 = m.HEAPU32;
       /** { builderVersion, host, options (JSON text) } */
       this.provenance = {
@@ -625,7 +625,7 @@ class Asset {
     m.HEAPF64.set(Array.from(dir), pdir >> 3);
     const out = this.#scratch + S_OUT;
     const pg = opts?.grad ? this.#scratch + S_PGRAD : 0;
-    this.#check(m._cadinterp_properties_eval(this.#ws, px, density, pdir, out, pg), null);
+    this.#check(m._cadinterp_eval_properties(this.#ws, px, density, pdir, out, pg), null);
     const f64 = m.HEAPF64;
     const r = readProps(f64, out);
     if (pg) {

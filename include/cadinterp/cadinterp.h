@@ -17,6 +17,15 @@
  * - Pointers returned in output structs point into the workspace (valid until the next call with
  *   that workspace or its destruction) or into the asset (valid until cadinterp_close), as stated.
  * - Shapes are written libigl-style: "#V by 3" is a row-major array of #V rows of 3 values.
+ * - Integer types: counts and indices of the asset's things (parameters, fields, regions, face
+ *   tags of a region, elements, infeasible points; also the number of fields a call requests)
+ *   are int; counts and indices of a mesh's vertices, tets and triangles are uint32_t; lengths
+ *   of the caller's buffers of mesh ids, and byte sizes, are size_t.
+ * - Names: how many of a thing the asset holds is cadinterp_<thing>_count(asset); one of them
+ *   is cadinterp_<thing>(asset, i, ...), its struct (if any) cadinterp_<thing>_info; an
+ *   evaluation at x is cadinterp_eval or cadinterp_eval_<what>. An old name stays for one
+ *   release as a deprecated alias (CADINTERP_DEPRECATED, cadinterp_version.h), declared at the
+ *   end of this header.
  */
 #ifndef CADINTERP_H
 #define CADINTERP_H
@@ -106,8 +115,8 @@ CADINTERP_API void cadinterp_close(cadinterp_asset* asset);
  * its outputs only on success, and returns strings and arrays owned by the asset, valid until
  * cadinterp_close. */
 
-/** Number of parameters K (1..8), or 0 if asset is NULL. */
-CADINTERP_API int cadinterp_dim(const cadinterp_asset* asset);
+/** Number of parameters K (1..8), or 0 if asset is NULL. Thread-safe. */
+CADINTERP_API int cadinterp_parameter_count(const cadinterp_asset* asset);
 /** Basis degree: 1 (linear, C0) or 3 (cubic, C2), 0 if asset is NULL. */
 CADINTERP_API int cadinterp_degree(const cadinterp_asset* asset);
 /** Number of elements of the K-d tree, 0 if asset is NULL. */
@@ -191,12 +200,13 @@ typedef struct cadinterp_provenance {
 
 /**
  * How the asset was built, as the builder recorded it: three NUL-terminated strings owned by the
- * asset, valid until cadinterp_close ("" for any the asset does not record).
+ * asset, valid until cadinterp_close ("" for any the asset does not record). Named after the
+ * asset, as cadinterp_asset_format: the name cadinterp_provenance is its struct's.
  * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument (`*out` untouched).
  * Thread-safety: safe.
  */
-CADINTERP_API cadinterp_status cadinterp_get_provenance(const cadinterp_asset* asset,
-                                                        cadinterp_provenance* out);
+CADINTERP_API cadinterp_status cadinterp_asset_provenance(const cadinterp_asset* asset,
+                                                          cadinterp_provenance* out);
 
 /**
  * The element holding x, and whether it can be evaluated. Points on faces between elements are
@@ -421,6 +431,24 @@ typedef struct cadinterp_properties {
  * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT also for a NULL out or direction, or a
  *         density or direction value that is NaN or infinite (checked before x).
  */
+CADINTERP_API cadinterp_status cadinterp_eval_properties(cadinterp_workspace* ws, const double* x,
+                                                         double density, const double* direction,
+                                                         cadinterp_properties* out,
+                                                         cadinterp_properties* grad);
+
+/* ---- Deprecated names ------------------------------------------------------------------------
+ * Each calls its new name and returns what it returns (same thread-safety, ownership and
+ * failures). Kept exported for one release, then removed (CHANGELOG.md). */
+
+/** Deprecated name of cadinterp_parameter_count. */
+CADINTERP_DEPRECATED("use cadinterp_parameter_count")
+CADINTERP_API int cadinterp_dim(const cadinterp_asset* asset);
+/** Deprecated name of cadinterp_asset_provenance. */
+CADINTERP_DEPRECATED("use cadinterp_asset_provenance")
+CADINTERP_API cadinterp_status cadinterp_get_provenance(const cadinterp_asset* asset,
+                                                        cadinterp_provenance* out);
+/** Deprecated name of cadinterp_eval_properties. */
+CADINTERP_DEPRECATED("use cadinterp_eval_properties")
 CADINTERP_API cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double* x,
                                                          double density, const double* direction,
                                                          cadinterp_properties* out,

@@ -40,7 +40,9 @@ class Asset {
     if (s != CADINTERP_OK) throw Error(s, cadinterp_open_error());
     return Asset(a);
   }
-  int dim() const { return cadinterp_dim(get()); }
+  int parameter_count() const { return cadinterp_parameter_count(get()); }
+  /// Deprecated name of parameter_count(), kept for one release.
+  [[deprecated("use parameter_count")]] int dim() const { return parameter_count(); }
   int degree() const { return cadinterp_degree(get()); }
   int element_count() const { return cadinterp_element_count(get()); }
   cadinterp_parameter_info parameter(int i) const {
@@ -92,15 +94,15 @@ class Workspace {
   }
   /// dF/dx (K values) from dF/dpositions (#V by 3).
   std::vector<double> vjp(const double* x, const float* dF_dpositions) {
-    std::vector<double> out(static_cast<size_t>(asset_.dim()));
+    std::vector<double> out(static_cast<size_t>(asset_.parameter_count()));
     check(cadinterp_vjp(ws_.get(), x, dF_dpositions, nullptr, nullptr, 0, out.data()));
     return out;
   }
   cadinterp_properties properties(const double* x, double density, const double direction[3],
                                   std::vector<cadinterp_properties>* grad = nullptr) {
     cadinterp_properties p{};
-    if (grad) grad->resize(static_cast<size_t>(asset_.dim()));
-    check(cadinterp_properties_eval(ws_.get(), x, density, direction, &p,
+    if (grad) grad->resize(static_cast<size_t>(asset_.parameter_count()));
+    check(cadinterp_eval_properties(ws_.get(), x, density, direction, &p,
                                     grad ? grad->data() : nullptr));
     return p;
   }

@@ -45,18 +45,7 @@
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_status.h"
-
-/* Marks a declaration kept for one release under an old name; compilers warn where it is used.
- * Define CADINTERP_DEPRECATED(msg) as empty before including this header to silence them. */
-#ifndef CADINTERP_DEPRECATED
-#if defined(_MSC_VER)
-#define CADINTERP_DEPRECATED(msg) __declspec(deprecated(msg))
-#elif defined(__GNUC__) || defined(__clang__)
-#define CADINTERP_DEPRECATED(msg) __attribute__((deprecated(msg)))
-#else
-#define CADINTERP_DEPRECATED(msg)
-#endif
-#endif
+#include "cadinterp/cadinterp_version.h"
 
 #ifdef __cplusplus
 extern "C" {

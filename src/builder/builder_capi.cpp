@@ -1,5 +1,7 @@
 // The builder's C ABI (include/cadinterp/cadinterp_builder.h) over build.h. Every exported body
-// is guarded: no exception crosses the interface, and failures leave outputs untouched.
+// that can throw runs between CADINTERP_CATCH_BEGIN and CADINTERP_CATCH_END_MAP (capi_guard.h,
+// with builder_exceptions): no exception crosses the interface, and failures leave outputs
+// untouched.
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -11,11 +13,12 @@
 #include <vector>
 
 #include "builder/build.h"
-#include "mesh/host_call.h"
 #include "builder/sample_store.h"
 #include "cadinterp/cadinterp_builder.h"
+#include "capi/capi_guard.h"
 #include "format/asset_format.h"
 #include "format/asset_writer.h"
+#include "mesh/host_call.h"
 
 using cadinterp::mesh::Sample;
 
@@ -23,37 +26,38 @@ namespace {
 
 thread_local std::string t_create_error;
 
-// Runs `body` (returning cadinterp_status); maps exceptions to statuses and `error` text.
-template <class F>
-cadinterp_status guard(std::string* error, F&& body) {
+// The builder's own exceptions, and std::invalid_argument (an inconsistent host or option), as
+// statuses; out of memory and format errors are left to the shared ladder (capi_guard.h). Its
+// other exceptions keep their bare what() (no "internal error: " prefix), as the builder's
+// messages always have.
+bool builder_exceptions(cadinterp_status* status, std::string* error) {
   try {
-    return body();
+    throw;
   } catch (const std::bad_alloc&) {
-    if (error) *error = "out of memory";
-    return CADINTERP_E_OUT_OF_MEMORY;
+    return false;
+  } catch (const cadinterp::format::FormatError&) {
+    return false;
   } catch (const cadinterp::builder::BuildCancelled& e) {
+    *status = CADINTERP_E_CANCELLED;
     if (error) *error = e.what();
-    return CADINTERP_E_CANCELLED;
   } catch (const cadinterp::builder::BuildInfeasible& e) {
+    *status = CADINTERP_E_INFEASIBLE;
     if (error) *error = e.what();
-    return CADINTERP_E_INFEASIBLE;
   } catch (const cadinterp::builder::StoreError& e) {
+    *status = e.kind == cadinterp::builder::StoreError::Kind::Mismatch ? CADINTERP_E_STORE_MISMATCH
+                                                                       : CADINTERP_E_IO;
     if (error) *error = e.what();
-    return e.kind == cadinterp::builder::StoreError::Kind::Mismatch ? CADINTERP_E_STORE_MISMATCH
-                                                                    : CADINTERP_E_IO;
-  } catch (const cadinterp::format::FormatError& e) {
-    if (error) *error = e.what();
-    return static_cast<cadinterp_status>(static_cast<int>(e.status));
   } catch (const std::invalid_argument& e) {
+    *status = CADINTERP_E_INVALID_ARGUMENT;
     if (error) *error = e.what();
-    return CADINTERP_E_INVALID_ARGUMENT;
   } catch (const std::exception& e) {
+    *status = CADINTERP_E_INTERNAL;
     if (error) *error = e.what();
-    return CADINTERP_E_INTERNAL;
   } catch (...) {
+    *status = CADINTERP_E_INTERNAL;
     if (error) *error = "unknown exception";
-    return CADINTERP_E_INTERNAL;
   }
+  return true;
 }
 
 constexpr std::size_t kMaxCount = std::size_t(1) << 31;
@@ -79,107 +83,106 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_mesh(cadinterp_sample* s, co
                                                          size_t nv, const uint32_t* T, size_t nt,
                                                          const uint32_t* F, const int32_t* tags,
                                                          size_t nf) {
-  return guard(nullptr, [&] {
-    if (!s || s->mesh_set || (nv && !V) || (nt && !T) || (nf && (!F || !tags)) || nv >= kMaxCount ||
-        nt >= kMaxCount || nf >= kMaxCount)
-      return CADINTERP_E_INVALID_ARGUMENT;
-    // Copied aside first: running out of memory halfway leaves the sample as it was.
-    std::vector<double> vertices(V, V + 3 * nv);
-    std::vector<uint32_t> tets(T, T + 4 * nt), triangles(F, F + 3 * nf);
-    std::vector<int32_t> triangle_tags(tags, tags + nf);
-    Sample& x = s->sample;
-    x.vertices = std::move(vertices);
-    x.tets = std::move(tets);
-    x.triangles = std::move(triangles);
-    x.triangle_tags = std::move(triangle_tags);
-    s->mesh_set = true;
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || s->mesh_set || (nv && !V) || (nt && !T) || (nf && (!F || !tags)) || nv >= kMaxCount ||
+      nt >= kMaxCount || nf >= kMaxCount)
+    return CADINTERP_E_INVALID_ARGUMENT;
+  // Copied aside first: running out of memory halfway leaves the sample as it was.
+  std::vector<double> vertices(V, V + 3 * nv);
+  std::vector<uint32_t> tets(T, T + 4 * nt), triangles(F, F + 3 * nf);
+  std::vector<int32_t> triangle_tags(tags, tags + nf);
+  Sample& x = s->sample;
+  x.vertices = std::move(vertices);
+  x.tets = std::move(tets);
+  x.triangles = std::move(triangles);
+  x.triangle_tags = std::move(triangle_tags);
+  s->mesh_set = true;
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API cadinterp_status cadinterp_sample_add_point(cadinterp_sample* s, const int64_t* id,
                                                           size_t n, const double* position) {
-  return guard(nullptr, [&] {
-    if (!s || !valid_id(id, n) || !position) return CADINTERP_E_INVALID_ARGUMENT;
-    cadinterp::mesh::ControlPoint p;
-    p.id.assign(id, id + n);
-    for (const auto& q : s->sample.points)
-      if (q.id == p.id) return CADINTERP_E_INVALID_ARGUMENT;
-    std::memcpy(p.position, position, sizeof p.position);
-    s->sample.points.push_back(std::move(p));
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || !valid_id(id, n) || !position) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp::mesh::ControlPoint p;
+  p.id.assign(id, id + n);
+  for (const auto& q : s->sample.points)
+    if (q.id == p.id) return CADINTERP_E_INVALID_ARGUMENT;
+  std::memcpy(p.position, position, sizeof p.position);
+  s->sample.points.push_back(std::move(p));
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API cadinterp_status cadinterp_sample_add_path(cadinterp_sample* s, const int64_t* a,
                                                          size_t na, const int64_t* b, size_t nb,
                                                          const double* polyline, size_t np) {
-  return guard(nullptr, [&] {
-    if (!s || !valid_id(a, na) || !valid_id(b, nb) || !polyline || np < 2 || np >= kMaxCount)
-      return CADINTERP_E_INVALID_ARGUMENT;
-    cadinterp::mesh::Path p;
-    p.a.assign(a, a + na);
-    p.b.assign(b, b + nb);
-    p.polyline.assign(polyline, polyline + 3 * np);
-    s->sample.paths.push_back(std::move(p));
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || !valid_id(a, na) || !valid_id(b, nb) || !polyline || np < 2 || np >= kMaxCount)
+    return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp::mesh::Path p;
+  p.a.assign(a, a + na);
+  p.b.assign(b, b + nb);
+  p.polyline.assign(polyline, polyline + 3 * np);
+  s->sample.paths.push_back(std::move(p));
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API cadinterp_status cadinterp_sample_add_region(cadinterp_sample* s, const char* name,
                                                            const char* kind, const int32_t* tags,
                                                            size_t n) {
-  return guard(nullptr, [&] {
-    if (!s || !name || !*name || (n && !tags) || n >= kMaxCount)
-      return CADINTERP_E_INVALID_ARGUMENT;
-    for (const auto& r : s->sample.regions)
-      if (r.name == name) return CADINTERP_E_INVALID_ARGUMENT;
-    s->sample.regions.push_back({name, kind ? kind : "", std::vector<int32_t>(tags, tags + n)});
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || !name || !*name || (n && !tags) || n >= kMaxCount) return CADINTERP_E_INVALID_ARGUMENT;
+  for (const auto& r : s->sample.regions)
+    if (r.name == name) return CADINTERP_E_INVALID_ARGUMENT;
+  s->sample.regions.push_back({name, kind ? kind : "", std::vector<int32_t>(tags, tags + n)});
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* s, const char* name,
                                                           cadinterp_field_location loc,
                                                           int components, const double* values,
                                                           size_t count) {
-  return guard(nullptr, [&] {
-    if (!s || !name || !*name || components < 1 || components > 16 ||
-        (loc != CADINTERP_PER_VERTEX && loc != CADINTERP_PER_TET) || (count && !values) ||
-        count >= kMaxCount)
-      return CADINTERP_E_INVALID_ARGUMENT;
-    for (const auto& f : s->sample.fields)
-      if (f.name == name) return CADINTERP_E_INVALID_ARGUMENT;
-    cadinterp::mesh::Field f;
-    f.name = name;
-    f.location = static_cast<std::uint8_t>(loc);
-    f.components = components;
-    f.values.assign(values, values + count * static_cast<std::size_t>(components));
-    s->sample.fields.push_back(std::move(f));
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || !name || !*name || components < 1 || components > 16 ||
+      (loc != CADINTERP_PER_VERTEX && loc != CADINTERP_PER_TET) || (count && !values) ||
+      count >= kMaxCount)
+    return CADINTERP_E_INVALID_ARGUMENT;
+  for (const auto& f : s->sample.fields)
+    if (f.name == name) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp::mesh::Field f;
+  f.name = name;
+  f.location = static_cast<std::uint8_t>(loc);
+  f.components = components;
+  f.values.assign(values, values + count * static_cast<std::size_t>(components));
+  s->sample.fields.push_back(std::move(f));
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API cadinterp_status cadinterp_sample_set_field_unit(cadinterp_sample* s,
                                                                const char* name, const char* unit) {
-  return guard(nullptr, [&] {
-    if (!s || !name || !*name || !unit) return CADINTERP_E_INVALID_ARGUMENT;
-    for (auto& f : s->sample.fields)
-      if (f.name == name) {
-        f.unit = unit;
-        return CADINTERP_OK;
-      }
-    return CADINTERP_E_NOT_FOUND;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || !name || !*name || !unit) return CADINTERP_E_INVALID_ARGUMENT;
+  for (auto& f : s->sample.fields)
+    if (f.name == name) {
+      f.unit = unit;
+      return CADINTERP_OK;
+    }
+  return CADINTERP_E_NOT_FOUND;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
                                                             const char* message) {
-  return guard(nullptr, [&] {
-    if (!s || !message) return CADINTERP_E_INVALID_ARGUMENT;
-    s->sample.message = message;
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!s || !message) return CADINTERP_E_INVALID_ARGUMENT;
+  s->sample.message = message;
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
 CADINTERP_API const char* cadinterp_builder_version(void) {
@@ -211,58 +214,57 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   // Every failure leaves *out NULL (the header's promise), so a caller that destroys it
   // unconditionally never frees a stale pointer.
   if (out) *out = nullptr;
-  return guard(&t_create_error, [&] {
-    if (!out) throw std::invalid_argument("out is NULL");
-    if (!host) throw std::invalid_argument("host is NULL");
-    cadinterp_build_options o;
-    cadinterp_build_options_init(&o);
-    if (options) {
-      // Grow-by-addition: a caller compiled against an older, shorter struct still works.
-      if (options->struct_size < offsetof(cadinterp_build_options, progress_user) + sizeof(void*))
-        throw std::invalid_argument("options: struct_size too small");
-      std::memcpy(&o, options, std::min(options->struct_size, sizeof o));
-    }
-    if (o.degree != 1 && o.degree != 3)
-      throw std::invalid_argument("options: degree must be 1 or 3");
-    auto b = std::make_unique<cadinterp_builder>();
-    b->host = std::make_unique<cadinterp::mesh::Host>(*host);
-    auto& bo = b->options;
-    bo.degree = o.degree == 3 ? cadinterp::core::Degree::Cubic : cadinterp::core::Degree::Linear;
-    bo.geometry_tolerance = o.geometry_tolerance;
-    bo.field_tolerance = o.field_tolerance;
-    bo.max_samples = o.max_samples;
-    bo.max_depth = o.max_depth;
-    bo.threads = o.threads;
-    bo.store_path = o.store_path ? o.store_path : "";
-    bo.position_max_abs_error = o.position_max_abs_error;
-    bo.simulate_mapped = o.simulate_mapped != 0;
-    bo.canonical_refinement = o.canonical_refinement;
-    if (bo.canonical_refinement < 0 || bo.canonical_refinement > 20)
-      throw std::invalid_argument("options: canonical_refinement must be 0..20");
-    if (!(bo.geometry_tolerance > 0) || !(bo.field_tolerance > 0))
-      throw std::invalid_argument("options: tolerances must be positive");
-    if (bo.max_samples < 2) throw std::invalid_argument("options: max_samples must be >= 2");
-    if (bo.max_depth < 1 || bo.max_depth > 29)
-      throw std::invalid_argument("options: max_depth must be 1..29");
-    if (bo.threads < 0) throw std::invalid_argument("options: threads must be >= 0");
-    // Checked again by the build; refused here so that create reports every inconsistent
-    // option, as its header says, before any run.
-    if (!(bo.position_max_abs_error >= 0))
-      throw std::invalid_argument("options: position_max_abs_error must be >= 0");
-    if (bo.simulate_mapped && !host->simulate)
-      throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
-    b->progress = o.progress;
-    b->progress_user = o.progress_user;
-    if (b->progress) {
-      cadinterp_builder* raw = b.get();
-      bo.progress = [raw](const cadinterp_progress& p) {
-        return raw->progress(raw->progress_user, &p) != 0;
-      };
-    }
-    *out = b.release();
-    t_create_error.clear();
-    return CADINTERP_OK;
-  });
+  CADINTERP_CATCH_BEGIN
+  if (!out) throw std::invalid_argument("out is NULL");
+  if (!host) throw std::invalid_argument("host is NULL");
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  if (options) {
+    // Grow-by-addition: a caller compiled against an older, shorter struct still works.
+    if (options->struct_size < offsetof(cadinterp_build_options, progress_user) + sizeof(void*))
+      throw std::invalid_argument("options: struct_size too small");
+    std::memcpy(&o, options, std::min(options->struct_size, sizeof o));
+  }
+  if (o.degree != 1 && o.degree != 3) throw std::invalid_argument("options: degree must be 1 or 3");
+  auto b = std::make_unique<cadinterp_builder>();
+  b->host = std::make_unique<cadinterp::mesh::Host>(*host);
+  auto& bo = b->options;
+  bo.degree = o.degree == 3 ? cadinterp::core::Degree::Cubic : cadinterp::core::Degree::Linear;
+  bo.geometry_tolerance = o.geometry_tolerance;
+  bo.field_tolerance = o.field_tolerance;
+  bo.max_samples = o.max_samples;
+  bo.max_depth = o.max_depth;
+  bo.threads = o.threads;
+  bo.store_path = o.store_path ? o.store_path : "";
+  bo.position_max_abs_error = o.position_max_abs_error;
+  bo.simulate_mapped = o.simulate_mapped != 0;
+  bo.canonical_refinement = o.canonical_refinement;
+  if (bo.canonical_refinement < 0 || bo.canonical_refinement > 20)
+    throw std::invalid_argument("options: canonical_refinement must be 0..20");
+  if (!(bo.geometry_tolerance > 0) || !(bo.field_tolerance > 0))
+    throw std::invalid_argument("options: tolerances must be positive");
+  if (bo.max_samples < 2) throw std::invalid_argument("options: max_samples must be >= 2");
+  if (bo.max_depth < 1 || bo.max_depth > 29)
+    throw std::invalid_argument("options: max_depth must be 1..29");
+  if (bo.threads < 0) throw std::invalid_argument("options: threads must be >= 0");
+  // Checked again by the build; refused here so that create reports every inconsistent
+  // option, as its header says, before any run.
+  if (!(bo.position_max_abs_error >= 0))
+    throw std::invalid_argument("options: position_max_abs_error must be >= 0");
+  if (bo.simulate_mapped && !host->simulate)
+    throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
+  b->progress = o.progress;
+  b->progress_user = o.progress_user;
+  if (b->progress) {
+    cadinterp_builder* raw = b.get();
+    bo.progress = [raw](const cadinterp_progress& p) {
+      return raw->progress(raw->progress_user, &p) != 0;
+    };
+  }
+  *out = b.release();
+  t_create_error.clear();
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(&t_create_error, builder_exceptions)
 }
 
 CADINTERP_API const char* cadinterp_builder_create_error(void) { return t_create_error.c_str(); }
@@ -277,7 +279,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const
   if (!b) return CADINTERP_E_INVALID_ARGUMENT;
   b->details = cadinterp::builder::BuildReport{};
   b->write_seconds = 0;
-  const cadinterp_status status = guard(&b->error, [&] {
+  const cadinterp_status status = [&]() -> cadinterp_status {
+    CADINTERP_CATCH_BEGIN
     if (!path || !*path) throw std::invalid_argument("output path is NULL or empty");
     cadinterp::format::check_asset_file_writable(path);
     cadinterp::builder::BuildResult r =
@@ -291,7 +294,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const
     b->details.counts.wall_seconds += b->write_seconds;
     b->error.clear();
     return CADINTERP_OK;
-  });
+    CADINTERP_CATCH_END_MAP(&b->error, builder_exceptions)
+  }();
   // On every path: a failed run still reports what it did before failing (build() fills
   // `details` before it returns or throws).
   b->report = b->details.counts;

@@ -5,6 +5,7 @@
 #include <new>
 #include <stdexcept>
 
+#include "capi/capi_guard.h"
 #include "core/grid.h"
 #include "format/asset_format.h"
 
@@ -41,19 +42,33 @@ Host::Host(const cadinterp_host& h) {
 
 namespace {
 
+// A host callback's exception, as the words after the callback's name in the Sample's message:
+// every exception is the host's failure at that x (the build goes on), so none is an internal
+// error of the builder's, and each keeps its own words.
+bool callback_exceptions(cadinterp_status* status, std::string* error) {
+  *status = CADINTERP_E_INTERNAL;
+  try {
+    throw;
+  } catch (const std::bad_alloc&) {
+    if (error) *error = "ran out of memory";
+  } catch (const std::exception& e) {
+    if (error) *error = std::string("threw: ") + e.what();
+  } catch (...) {
+    if (error) *error = "threw an unknown exception";
+  }
+  return true;
+}
+
 // Calls one callback; a status, a C++ exception or a missing result becomes a message.
 template <class F>
 std::string guarded(const char* what, cadinterp_sample& out, F&& call) {
-  cadinterp_status st = CADINTERP_E_INTERNAL;
-  try {
-    st = call();
-  } catch (const std::bad_alloc&) {
-    return std::string(what) + " ran out of memory";
-  } catch (const std::exception& e) {
-    return std::string(what) + " threw: " + e.what();
-  } catch (...) {
-    return std::string(what) + " threw an unknown exception";
-  }
+  std::string thrown;
+  const cadinterp_status st = [&]() -> cadinterp_status {
+    CADINTERP_CATCH_BEGIN
+    return call();
+    CADINTERP_CATCH_END_MAP(&thrown, callback_exceptions)
+  }();
+  if (!thrown.empty()) return std::string(what) + " " + thrown;
   if (st == CADINTERP_OK) return "";
   std::string m = std::string(what) + " failed (status " + std::to_string(static_cast<int>(st));
   if (st > CADINTERP_OK && st <= CADINTERP_E_INTERNAL)

@@ -34,7 +34,7 @@ int main(void) {
   CHECK(strlen(cadinterp_open_error()) > 0);
   CHECK(cadinterp_open_memory(garbage, sizeof garbage, 0, &asset) == CADINTERP_E_BAD_MAGIC);
   CHECK(cadinterp_open(NULL, &asset) == CADINTERP_E_INVALID_ARGUMENT);
-  CHECK(cadinterp_dim(NULL) == 0);
+  CHECK(cadinterp_parameter_count(NULL) == 0);
   CHECK(cadinterp_field_unit(NULL, 0, &unit) == CADINTERP_E_INVALID_ARGUMENT);
   CHECK(strcmp(unit, "untouched") == 0);
   {

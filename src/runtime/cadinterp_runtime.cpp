@@ -1,8 +1,8 @@
 // The C ABI of include/cadinterp/cadinterp.h: argument checks, the exception guard, and the
 // queries answered from the asset's metadata. The objects behind the handles are in
 // runtime_objects.h, the element cache in element_cache.h, the evaluation bodies in evaluate.h.
-// Every exported body that can throw runs between CADINTERP_CATCH_BEGIN and _END (capi_guard.h),
-// which map exceptions to status codes: nothing crosses the ABI.
+// Every exported body that can throw runs between CADINTERP_CATCH_BEGIN and _END
+// (capi/capi_guard.h), which map exceptions to status codes: nothing crosses the ABI.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -12,8 +12,8 @@
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
+#include "capi/capi_guard.h"
 #include "format/asset_reader.h"
-#include "runtime/capi_guard.h"
 #include "runtime/evaluate.h"
 #include "runtime/runtime_objects.h"
 
@@ -92,7 +92,7 @@ const char* cadinterp_open_error(void) { return t_open_error.c_str(); }
 
 void cadinterp_close(cadinterp_asset* asset) { delete asset; }
 
-int cadinterp_dim(const cadinterp_asset* a) { return a ? a->reader->basis().dim() : 0; }
+int cadinterp_parameter_count(const cadinterp_asset* a) { return a ? a->reader->basis().dim() : 0; }
 int cadinterp_degree(const cadinterp_asset* a) {
   return a ? static_cast<int>(a->reader->basis().degree()) : 0;
 }
@@ -160,7 +160,7 @@ cadinterp_status cadinterp_region(const cadinterp_asset* a, int i, cadinterp_reg
   return CADINTERP_OK;
 }
 
-cadinterp_status cadinterp_get_provenance(const cadinterp_asset* a, cadinterp_provenance* out) {
+cadinterp_status cadinterp_asset_provenance(const cadinterp_asset* a, cadinterp_provenance* out) {
   if (!a || !out) return CADINTERP_E_INVALID_ARGUMENT;
   *out = {a->builder_version.c_str(), a->host.c_str(), a->options.c_str()};
   return CADINTERP_OK;
@@ -282,7 +282,7 @@ cadinterp_status cadinterp_vjp(cadinterp_workspace* ws, const double* x, const f
   CADINTERP_CATCH_END(&ws->error)
 }
 
-cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double* x, double density,
+cadinterp_status cadinterp_eval_properties(cadinterp_workspace* ws, const double* x, double density,
                                            const double* direction, cadinterp_properties* out,
                                            cadinterp_properties* grad) {
   if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
@@ -295,6 +295,20 @@ cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double
   CADINTERP_CATCH_BEGIN
   return evaluate_properties(ws, x, density, direction, out, grad);
   CADINTERP_CATCH_END(&ws->error)
+}
+
+// The deprecated names (cadinterp.h, "Deprecated names"): exported for one release.
+
+int cadinterp_dim(const cadinterp_asset* a) { return cadinterp_parameter_count(a); }
+
+cadinterp_status cadinterp_get_provenance(const cadinterp_asset* a, cadinterp_provenance* out) {
+  return cadinterp_asset_provenance(a, out);
+}
+
+cadinterp_status cadinterp_properties_eval(cadinterp_workspace* ws, const double* x, double density,
+                                           const double* direction, cadinterp_properties* out,
+                                           cadinterp_properties* grad) {
+  return cadinterp_eval_properties(ws, x, density, direction, out, grad);
 }
 
 }  // extern "C"

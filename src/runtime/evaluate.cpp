@@ -1,4 +1,4 @@
-// The evaluation bodies behind cadinterp_eval, _eval_subset, _grad, _vjp and _properties_eval
+// The evaluation bodies behind cadinterp_eval, _eval_subset, _grad, _vjp and _eval_properties
 // (evaluate.h): locate x, take the element from the asset's cache, blend its stored samples with
 // the basis weights (paper Eq. 3 and 13; kernels in blend_multi.h and mesh_metrics.h) and refuse
 // results that overflow single precision.

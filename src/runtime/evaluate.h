@@ -1,6 +1,6 @@
-// The evaluation bodies of the C ABI's eval, eval_subset, grad, vjp and properties_eval. The
+// The evaluation bodies of the C ABI's eval, eval_subset, grad, vjp and eval_properties. The
 // C ABI layer (cadinterp_runtime.cpp) checks the workspace and output pointers and guards each
-// call (capi_guard.h); these check the rest of the arguments, report failures through the
+// call (capi/capi_guard.h); these check the rest of the arguments, report failures through the
 // workspace's message, clear it on success, and may throw (format::FormatError, std::bad_alloc).
 #pragma once
 

@@ -373,7 +373,7 @@ void Run::queries() {
   int fmt_major = 0, fmt_minor = -1;
   cadinterp_format_version(&fmt_major, &fmt_minor);
   CHECK(cadinterp_version() && fmt_major == 1 && fmt_minor >= 0, "versions");
-  K_ = cadinterp_dim(a_);
+  K_ = cadinterp_parameter_count(a_);
   CHECK(K_ >= 1 && K_ <= 8, "dim %d", K_);
   const int degree = cadinterp_degree(a_);
   CHECK(degree == 1 || degree == 3, "degree %d", degree);
@@ -460,7 +460,7 @@ void Run::queries() {
   CHECK(cadinterp_region(a_, nr, &r) == CADINTERP_E_INVALID_ARGUMENT, "region(count)");
 
   cadinterp_provenance pv;
-  CHECK(cadinterp_get_provenance(a_, &pv) == CADINTERP_OK && pv.builder_version && pv.host &&
+  CHECK(cadinterp_asset_provenance(a_, &pv) == CADINTERP_OK && pv.builder_version && pv.host &&
             pv.options,
         "provenance");
   (void)std::strlen(pv.builder_version), (void)std::strlen(pv.host), (void)std::strlen(pv.options);
@@ -683,14 +683,14 @@ void Run::vjp(PointCalls& c) {
   }
 }
 
-// properties_eval, with and without gradients.
+// eval_properties, with and without gradients.
 void Run::properties(const PointCalls& c) {
   const Script& s = c.s;
   cadinterp_properties props;
   poison(&props);
   std::vector<cadinterp_properties> pgrad(static_cast<std::size_t>(K_));
   for (auto& pg : pgrad) poison(&pg);
-  const cadinterp_status st = cadinterp_properties_eval(c.ws, c.x, s.density, s.direction, &props,
+  const cadinterp_status st = cadinterp_eval_properties(c.ws, c.x, s.density, s.direction, &props,
                                                         s.property_grads ? pgrad.data() : nullptr);
   // A non-finite density or direction is the caller's invalid argument.
   bool properties_args_ok = std::isfinite(s.density);
@@ -699,7 +699,7 @@ void Run::properties(const PointCalls& c) {
   // tiny parameter range): that refusal names itself.
   CHECK(st == (properties_args_ok ? c.base : CADINTERP_E_INVALID_ARGUMENT) ||
             (properties_args_ok && c.base == CADINTERP_OK && c.overflowed(st)),
-        "properties_eval: %s, eval %s", name(st), name(c.base));
+        "eval_properties: %s, eval %s", name(st), name(c.base));
   if (st == CADINTERP_OK) {
     // With a moderate density and direction, volume, mass and areas are sums of products of
     // finite floats in double: finite. Centroid and inertia divide by the volume (NaN when it
@@ -723,9 +723,9 @@ void Run::properties(const PointCalls& c) {
       }
     }
   } else {
-    check_failure(c.ws, st, "properties_eval");
-    CHECK(poisoned(&props), "properties_eval wrote its output on failure");
-    for (const auto& pg : pgrad) CHECK(poisoned(&pg), "properties_eval wrote its gradient");
+    check_failure(c.ws, st, "eval_properties");
+    CHECK(poisoned(&props), "eval_properties wrote its output on failure");
+    for (const auto& pg : pgrad) CHECK(poisoned(&pg), "eval_properties wrote its gradient");
   }
 }
 

@@ -67,7 +67,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (cadinterp_open_memory(bytes.data(), bytes.size(), 0, &asset) != CADINTERP_OK) return 0;
   cadinterp_workspace* ws = nullptr;
   if (cadinterp_workspace_create(asset, &ws) == CADINTERP_OK) {
-    const int K = cadinterp_dim(asset);
+    const int K = cadinterp_parameter_count(asset);
     std::vector<double> x(static_cast<std::size_t>(K));
     const int fields[1] = {0};
     const int nf = cadinterp_field_count(asset) > 0 ? 1 : 0;
@@ -86,7 +86,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       cadinterp_vjp(ws, x.data(), adj.data(), nullptr, nullptr, 0, out.data());
       const double dir[3] = {0, 0, 1};
       cadinterp_properties props;
-      cadinterp_properties_eval(ws, x.data(), 1.0, dir, &props, nullptr);
+      cadinterp_eval_properties(ws, x.data(), 1.0, dir, &props, nullptr);
     }
     cadinterp_workspace_destroy(ws);
   }

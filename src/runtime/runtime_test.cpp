@@ -19,9 +19,9 @@
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
+#include "capi/capi_guard.h"
 #include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
-#include "runtime/capi_guard.h"
 #include "runtime/mesh_metrics.h"
 
 namespace {
@@ -60,7 +60,7 @@ SyntheticSpec spec(int K, cadinterp::core::Degree g) {
 
 TEST(Runtime, QueriesDescribeTheAsset) {
   const auto o = open_synthetic(spec(3, cadinterp::core::Degree::Cubic));
-  EXPECT_EQ(cadinterp_dim(o->asset), 3);
+  EXPECT_EQ(cadinterp_parameter_count(o->asset), 3);
   EXPECT_EQ(cadinterp_degree(o->asset), 3);
   EXPECT_EQ(cadinterp_element_count(o->asset), o->synthetic.basis->element_count());
   cadinterp_parameter_info p;
@@ -86,7 +86,7 @@ TEST(Runtime, QueriesDescribeTheAsset) {
   ASSERT_EQ(r.face_tag_count, 1);
   EXPECT_EQ(r.face_tags[0], 0);
   cadinterp_provenance prov;
-  ASSERT_EQ(cadinterp_get_provenance(o->asset, &prov), CADINTERP_OK);
+  ASSERT_EQ(cadinterp_asset_provenance(o->asset, &prov), CADINTERP_OK);
   EXPECT_STREQ(prov.host, "synthetic box");
   int major = 0, minor = -1;
   EXPECT_EQ(cadinterp_asset_format(o->asset, &major, &minor), CADINTERP_OK);
@@ -397,7 +397,7 @@ TEST(Runtime, PropertiesAndTheirGradients) {
   const double dir[3] = {0.0, 0.0, 1.0};
   double x[2] = {0.3, 0.6};
   cadinterp_properties p, g[2];
-  ASSERT_EQ(cadinterp_properties_eval(o->ws, x, 7.8, dir, &p, g), CADINTERP_OK);
+  ASSERT_EQ(cadinterp_eval_properties(o->ws, x, 7.8, dir, &p, g), CADINTERP_OK);
   // Against the kernel on the evaluated mesh.
   cadinterp_mesh m;
   ASSERT_EQ(cadinterp_eval(o->ws, x, nullptr, 0, &m), CADINTERP_OK);
@@ -415,8 +415,8 @@ TEST(Runtime, PropertiesAndTheirGradients) {
     xp[d] += h;
     xm[d] -= h;
     cadinterp_properties pp, pm;
-    ASSERT_EQ(cadinterp_properties_eval(o->ws, xp, 7.8, dir, &pp, nullptr), CADINTERP_OK);
-    ASSERT_EQ(cadinterp_properties_eval(o->ws, xm, 7.8, dir, &pm, nullptr), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_eval_properties(o->ws, xp, 7.8, dir, &pp, nullptr), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_eval_properties(o->ws, xm, 7.8, dir, &pm, nullptr), CADINTERP_OK);
     EXPECT_NEAR(g[d].volume, (pp.volume - pm.volume) / (2 * h), 1e-4);
     EXPECT_NEAR(g[d].area, (pp.area - pm.area) / (2 * h), 1e-3);
     EXPECT_NEAR(g[d].frontal_area, (pp.frontal_area - pm.frontal_area) / (2 * h), 1e-3);
@@ -436,19 +436,19 @@ TEST(Runtime, PropertiesRefuseBadDensityAndDirection) {
   cadinterp_properties p, g[2];
   std::memset(&p, 0x5a, sizeof p);
   const cadinterp_properties before = p;
-  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, nullptr, &p, nullptr),
+  EXPECT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, nullptr, &p, nullptr),
             CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, std::nan(""), dir, &p, nullptr),
+  EXPECT_EQ(cadinterp_eval_properties(o->ws, x, std::nan(""), dir, &p, nullptr),
             CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, HUGE_VAL, dir, &p, nullptr),
+  EXPECT_EQ(cadinterp_eval_properties(o->ws, x, HUGE_VAL, dir, &p, nullptr),
             CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, nan_dir, &p, g), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, nan_dir, &p, g), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(cadinterp_workspace_error(o->ws)).find("direction"), std::string::npos)
       << cadinterp_workspace_error(o->ws);
-  EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, inf_dir, &p, nullptr),
+  EXPECT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, inf_dir, &p, nullptr),
             CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_EQ(std::memcmp(&p, &before, sizeof p), 0) << "a failed properties_eval wrote its output";
-  ASSERT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, dir, &p, g), CADINTERP_OK);
+  EXPECT_EQ(std::memcmp(&p, &before, sizeof p), 0) << "a failed eval_properties wrote its output";
+  ASSERT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, dir, &p, g), CADINTERP_OK);
   EXPECT_STREQ(cadinterp_workspace_error(o->ws), "");
 }
 
@@ -590,7 +590,7 @@ TEST(Runtime, DocumentedArgumentAndMessageRules) {
   cadinterp_region_info r;
   EXPECT_EQ(cadinterp_region(o->asset, cadinterp_region_count(o->asset), &r),
             CADINTERP_E_INVALID_ARGUMENT);
-  EXPECT_EQ(cadinterp_get_provenance(o->asset, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_asset_provenance(o->asset, nullptr), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(cadinterp_set_cache_budget(nullptr, 0), CADINTERP_E_INVALID_ARGUMENT);
   // The message is the most recent call's: a failure's text, then "" after a success.
   cadinterp_mesh m;
@@ -757,7 +757,7 @@ TEST(Runtime, LazyFieldsFailOnlyTheCallsThatNeedThem) {
       EXPECT_EQ(std::vector<float>(m.positions, m.positions + 3 * m.vertex_count), ref_pos);
       const double dir[3] = {0, 0, 1};
       cadinterp_properties p;
-      EXPECT_EQ(cadinterp_properties_eval(o->ws, x, 1.0, dir, &p, nullptr), CADINTERP_OK);
+      EXPECT_EQ(cadinterp_eval_properties(o->ws, x, 1.0, dir, &p, nullptr), CADINTERP_OK);
     }
   }
   // And the intact asset evaluates the fields after shape-only calls.

@@ -129,11 +129,11 @@ int cmd_bench(const std::vector<std::string>& args) {
   std::vector<cadinterp_properties> dprops(uK);
   for (const auto& q : points) {
     auto t0 = Clock::now();
-    check_ws(cadinterp_properties_eval(ws.get(), q.data(), 1.0, dir, &props, nullptr), ws.get(),
+    check_ws(cadinterp_eval_properties(ws.get(), q.data(), 1.0, dir, &props, nullptr), ws.get(),
              "properties");
     prop_t.s.push_back(seconds_since(t0));
     t0 = Clock::now();
-    check_ws(cadinterp_properties_eval(ws.get(), q.data(), 1.0, dir, &props, dprops.data()),
+    check_ws(cadinterp_eval_properties(ws.get(), q.data(), 1.0, dir, &props, dprops.data()),
              ws.get(), "properties");
     propg_t.s.push_back(seconds_since(t0));
   }

@@ -26,7 +26,7 @@ struct Param {
 
 std::vector<Param> parameters(const cadinterp_asset* a) {
   std::vector<Param> out;
-  for (int i = 0; i < cadinterp_dim(a); ++i) {
+  for (int i = 0; i < cadinterp_parameter_count(a); ++i) {
     cadinterp_parameter_info p{};
     if (cadinterp_parameter(a, i, &p) != CADINTERP_OK) throw RuntimeFailure("parameter query");
     out.push_back({p.name ? p.name : "", p.unit ? p.unit : "", p.lower, p.upper});
@@ -192,7 +192,7 @@ EvalResult evaluate(const EvalArgs& a) {
 
   const std::size_t K = r.params.size();
   r.dprops.resize(a.grad ? K : 0);
-  check_ws(cadinterp_properties_eval(ws.get(), r.x.data(), a.density, a.dir, &r.props,
+  check_ws(cadinterp_eval_properties(ws.get(), r.x.data(), a.density, a.dir, &r.props,
                                      a.grad ? r.dprops.data() : nullptr),
            ws.get(), "properties");
   r.max_speed.assign(K, 0.0);

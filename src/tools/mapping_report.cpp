@@ -683,7 +683,7 @@ int sweep(const std::vector<std::string>& args) {
     throw std::runtime_error(std::string("cannot open the asset: ") + cadinterp_open_error());
   cadinterp_workspace* ws = nullptr;
   cadinterp_workspace_create(asset, &ws);
-  const int K = cadinterp_dim(asset);
+  const int K = cadinterp_parameter_count(asset);
   std::vector<double> lo(static_cast<std::size_t>(K)), hi(lo.size()), x(lo.size());
   for (int d = 0; d < K; ++d) {
     cadinterp_parameter_info info;

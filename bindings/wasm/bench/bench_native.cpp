@@ -111,7 +111,7 @@ int time(const char* path, int n) {
   const double dir[3] = {0, 0, 1};
   cadinterp_properties p;
   const double props_ms = median_ms(n, [&](int i) {
-    check(cadinterp_properties_eval(ws, kPoints[i % 8], 1.0, dir, &p, nullptr), ws, "properties");
+    check(cadinterp_eval_properties(ws, kPoints[i % 8], 1.0, dir, &p, nullptr), ws, "properties");
   });
   std::printf(
       "{\"vertices\": %u, \"eval_ms\": %.4f, \"eval_field_ms\": %.4f, \"grad_ms\": %.4f, "

@@ -1,4 +1,4 @@
-// Mass properties off the main thread. cadinterp_properties_eval integrates over every tet of
+// Mass properties off the main thread. cadinterp_eval_properties integrates over every tet of
 // the mesh at x (490k tets on the 90k-vertex bracket: ~20 ms in WebAssembly), which would halve
 // the frame rate of a slider drag if it ran between frames. This worker holds its own instance
 // of the runtime and its own copy of the asset, and answers the latest request; the page keeps

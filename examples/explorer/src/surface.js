@@ -447,7 +447,7 @@ export function infeasibleRuns(asset, x, i, lower, upper, samples = 161) {
 
 /**
  * What the page takes from the whole mesh rather than from the drawn surface: the mass
- * properties at req.x (cadinterp_properties_eval) and the [min, max] of each field named in
+ * properties at req.x (cadinterp_eval_properties) and the [min, max] of each field named in
  * req.ranges (magnitudes for vector fields) over all its vertices or tets, as the native runtime
  * computes them. Run by the properties worker (or by the page without one).
  */

@@ -129,7 +129,7 @@ TEST(AnalyticEntry, BracketBuildsThroughTheSharedLibrary) {
 
   cadinterp_asset* asset = nullptr;
   ASSERT_EQ(cadinterp_open(path.c_str(), &asset), CADINTERP_OK) << cadinterp_open_error();
-  EXPECT_EQ(cadinterp_dim(asset), 4);
+  EXPECT_EQ(cadinterp_parameter_count(asset), 4);
   EXPECT_EQ(cadinterp_field_count(asset), 2);
   int index = -1;
   EXPECT_EQ(cadinterp_find_field(asset, "von_mises", &index), CADINTERP_OK);

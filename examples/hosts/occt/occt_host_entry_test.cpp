@@ -106,7 +106,7 @@ TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
 
   cadinterp_asset* asset = nullptr;
   ASSERT_EQ(cadinterp_open(asset_path.c_str(), &asset), CADINTERP_OK) << cadinterp_open_error();
-  EXPECT_EQ(cadinterp_dim(asset), 1);
+  EXPECT_EQ(cadinterp_parameter_count(asset), 1);
   EXPECT_EQ(cadinterp_region_count(asset), 2);
   cadinterp::occt::Model truth("wrench", options);
   const double x[] = {12.5};

@@ -1,8 +1,9 @@
 // The one mapping from a C++ exception to a C ABI status and message, for every exported
-// function of libcadinterp (after Embree's RTC_CATCH_BEGIN / RTC_CATCH_END): nothing thrown
-// crosses the C interface (include/cadinterp/cadinterp.h, "Conventions"). Header-only and free
-// of runtime types, so that another C ABI of the project (the builder's) can use it too, with
-// its own exception types mapped first.
+// function of the project's C ABIs (libcadinterp, libcadinterp_builder) and for the host
+// adapter's calls into a host's callbacks (after Embree's RTC_CATCH_BEGIN / RTC_CATCH_END):
+// nothing thrown crosses a C interface (include/cadinterp/cadinterp.h, "Conventions").
+// Header-only; it knows the format module's FormatError and the standard exceptions, and a C
+// ABI maps its own exception types first (CADINTERP_CATCH_END_MAP).
 //
 //   cadinterp_status cadinterp_something(cadinterp_workspace* ws, ...) {
 //     if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
@@ -16,7 +17,7 @@
 #include <new>
 #include <string>
 
-#include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_status.h"
 #include "format/asset_format.h"
 
 namespace cadinterp::capi {
