@@ -410,7 +410,7 @@ class AdaptiveDriver {
       Query q;
       const double e =
           midpoint_query(node, d, q) ? answer(q) : std::numeric_limits<double>::infinity();
-      if (e > best || (e == best && node.level[d] < node.level[dir])) {
+      if (e > best || (e == best && dir >= 0 && node.level[d] < node.level[dir])) {
         best = e;
         dir = d;
       }
