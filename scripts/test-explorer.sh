@@ -27,9 +27,9 @@ build=${BUILD_DIR:-build/release}
 jobs=${JOBS:-2}
 explorer=examples/explorer
 
-# npm install (not npm ci) when node_modules is missing or older than the lock file: the lock
-# records only this platform's optional packages (rollup's native builds), which npm ci refuses
-# as out of sync, while npm install installs exactly the locked versions and leaves the lock as is.
+# npm install when node_modules is missing or older than the lock file: it installs exactly the
+# locked versions. The lock records every platform's optional packages (rollup's native builds),
+# as npm writes it, so that the install leaves it unchanged and the tree clean.
 if [ ! -f $explorer/node_modules/.package-lock.json ] ||
    [ $explorer/package-lock.json -nt $explorer/node_modules/.package-lock.json ]; then
   (cd $explorer && npm install --no-audit --no-fund)
