@@ -17,9 +17,9 @@
 #include "analytic_host.h"
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
-#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "mapping/interior_solve.h"
+#include "mesh/surface_distance.h"
 
 namespace {
 
@@ -137,11 +137,10 @@ TEST(EndToEnd, PlateBuildsAcrossResolutionsWithTheMeshMapper) {
   // what the 120-sample budget stops short on, so it is checked where the asset must reproduce
   // the host up to the mapping alone: at the box's corners, which are samples.
   const analytic_model* model = analytic_host_model(fine);
-  a = builder::measure_accuracy(path, mesh::Host(*fine), 60, 4,
-                                [model](int f, const double* x, const double* p, double* v) {
-                                  return f == 0 &&
-                                         analytic_model_field_at(model, f, x, p, v) == CADINTERP_OK;
-                                });
+  a = builder::measure_accuracy(
+      path, mesh::Host(*fine), 60, 4, [model](int f, const double* x, const double* p, double* v) {
+        return f == 0 && analytic_model_field_at(model, f, x, p, v) == CADINTERP_OK;
+      });
   std::printf(
       "[ figures ] plate (edge=8, mesh mapper): %d samples, %d elements; geometry max %.2e p99 "
       "%.2e; temperature max %.2e p99 %.2e (closed form at the evaluated points)\n",
@@ -361,8 +360,7 @@ TEST(EndToEnd, CanonicalRefinementFollowsABendTheCanonicalMeshCutsAcross) {
       ASSERT_TRUE(s.feasible);
       const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
       const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
-      error.push_back(mesh::symmetric_hausdorff(V, F, s.vertices, s.triangles) /
-                      s.bbox_diagonal());
+      error.push_back(mesh::symmetric_hausdorff(V, F, s.vertices, s.triangles) / s.bbox_diagonal());
       vertices.push_back(m.vertex_count);
     }
     cadinterp_workspace_destroy(ws);

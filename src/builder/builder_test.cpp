@@ -23,10 +23,10 @@
 #include "builder/build.h"
 #include "builder/builder_e2e.h"
 #include "builder/sample_store.h"
-#include "mesh/surface_distance.h"
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "format/synthetic_asset.h"
+#include "mesh/surface_distance.h"
 
 namespace {
 
@@ -312,8 +312,7 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
   // The same through build(): each infeasible element carries the mapper's message, whichever
   // mapper it is.
   struct Refusing final : mesh::Mapper {
-    bool map(const Sample&, const Sample&, mesh::MappedSample&,
-             std::string& why) const override {
+    bool map(const Sample&, const Sample&, mesh::MappedSample&, std::string& why) const override {
       why = "refused by the test mapper";
       return false;
     }
@@ -331,8 +330,8 @@ TEST(Build, UnmappedCombinatoricsAreReportedNotBlended) {
     const builder::BuildResult b = builder::build(host, o);
     EXPECT_GT(b.report.infeasible_elements, 0);
     ASSERT_FALSE(b.infeasible.empty());
-    const std::string expected = mapper == &refusing ? "refused by the test mapper"
-                                                     : "no control point with the same ID";
+    const std::string expected =
+        mapper == &refusing ? "refused by the test mapper" : "no control point with the same ID";
     // ... and names the failing term's sample, so that the pair can be mapped again alone.
     for (const builder::InfeasiblePoint& p : b.infeasible) {
       EXPECT_NE(p.message.find(expected), std::string::npos) << p.message;

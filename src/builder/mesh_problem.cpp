@@ -9,8 +9,8 @@
 #include <limits>
 #include <thread>
 
-#include "mesh/surface_distance.h"
 #include "mapping/field_transfer.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::builder {
 

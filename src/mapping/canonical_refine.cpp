@@ -26,7 +26,7 @@ double squared_length(const std::vector<double>& V, std::uint32_t a, std::uint32
 }  // namespace
 
 mesh::Sample bisect_edges(const mesh::Sample& s,
-                             const std::vector<std::array<std::uint32_t, 2>>& edges) {
+                          const std::vector<std::array<std::uint32_t, 2>>& edges) {
   mesh::Sample r = s;
   // Per vertex, the tets and triangles holding it, kept up to date as elements split, so that
   // each edge finds its elements without a scan of the mesh.
@@ -152,8 +152,7 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
   // canonical's, so that is its exact map, new vertices on its own surface, and no mapping.
   // Sources are mapped on up to options.threads threads (the mapper is const and thread-safe);
   // the first failure in source order is reported, whichever thread met it.
-  auto map_all = [&](const mesh::Sample& c, std::vector<mesh::MappedSample>& out,
-                     std::string& w) {
+  auto map_all = [&](const mesh::Sample& c, std::vector<mesh::MappedSample>& out, std::string& w) {
     out.assign(sources.size(), mesh::MappedSample());
     std::vector<std::string> whys(sources.size());
     std::vector<char> ok(sources.size(), 1);
@@ -197,8 +196,7 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
     for (std::size_t t = 0; t < s.triangle_count(); ++t)
       faces[s.triangle_tags[t]].insert(faces[s.triangle_tags[t]].end(), &s.triangles[3 * t],
                                        &s.triangles[3 * t + 3]);
-    for (const auto& [tag, F] : faces)
-      on_face[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
+    for (const auto& [tag, F] : faces) on_face[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
   }
   // The departure of every source on `c`, and the edges to bisect, over all sources: per
   // marked triangle, every edge whose mapped midpoint lies off the source's face by at least

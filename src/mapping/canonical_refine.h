@@ -31,7 +31,7 @@ namespace cadinterp::mapping {
 /// are not boundary edges (already split in this call, interior, indices out of range) are
 /// skipped.
 mesh::Sample bisect_edges(const mesh::Sample& s,
-                             const std::vector<std::array<std::uint32_t, 2>>& edges);
+                          const std::vector<std::array<std::uint32_t, 2>>& edges);
 
 struct RefineOptions {
   /// A boundary triangle is refined where, for some source, the mapped surface lies farther

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "mesh/sample.h"
 #include "mapping/surface.h"
+#include "mesh/sample.h"
 
 namespace cadinterp::mapping {
 
@@ -48,7 +48,6 @@ std::vector<std::vector<double>> transfer_fields(const mesh::Sample& source,
 /// canonical's regions name (requirement 5: a force or fixture stays on its CAD face). False with
 /// `why` where no source face lies in some canonical face's regions.
 bool mesh_for_simulation(const mesh::Sample& source, const mesh::Sample& canonical,
-                         const std::vector<double>& positions, mesh::Sample& out,
-                         std::string& why);
+                         const std::vector<double>& positions, mesh::Sample& out, std::string& why);
 
 }  // namespace cadinterp::mapping

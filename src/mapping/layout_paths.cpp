@@ -51,8 +51,7 @@ void collect(const mesh::Sample& mine, const std::set<Id>& common, bool in_sourc
 
 }  // namespace
 
-std::vector<OneSidedEdge> one_sided_edges(const mesh::Sample& source,
-                                          const mesh::Sample& canonical,
+std::vector<OneSidedEdge> one_sided_edges(const mesh::Sample& source, const mesh::Sample& canonical,
                                           const Correspondence& corr, double source_tolerance,
                                           double canonical_tolerance) {
   std::vector<OneSidedEdge> out;

@@ -25,8 +25,7 @@ struct OneSidedEdge {
 };
 
 /// One-sided edges whose two ends are anchors, by increasing length then key.
-std::vector<OneSidedEdge> one_sided_edges(const mesh::Sample& source,
-                                          const mesh::Sample& canonical,
+std::vector<OneSidedEdge> one_sided_edges(const mesh::Sample& source, const mesh::Sample& canonical,
                                           const Correspondence& corr, double source_tolerance,
                                           double canonical_tolerance);
 

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "mesh/surface_distance.h"
 #include "mapping/interior_solve.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::mapping {
 
@@ -20,9 +20,8 @@ double percentile(std::vector<double> v, double q) {
 // Per canonical vertex, max over components |mapped - value_at(v)| / the source field's range,
 // for per-vertex field f of the source; vertices where value_at returns false are left out.
 template <class ValueAt>
-std::vector<double> vertex_errors(const mesh::Sample& source,
-                                  const mesh::MappedSample& mapped, std::size_t f,
-                                  ValueAt&& value_at) {
+std::vector<double> vertex_errors(const mesh::Sample& source, const mesh::MappedSample& mapped,
+                                  std::size_t f, ValueAt&& value_at) {
   std::vector<double> errors;
   const mesh::Field& sf = source.fields[f];
   const auto C = static_cast<std::size_t>(sf.components);
@@ -42,15 +41,14 @@ std::vector<double> vertex_errors(const mesh::Sample& source,
 
 }  // namespace
 
-std::vector<FieldError> compare_fields(const mesh::Sample& source,
-                                       const mesh::MappedSample& mapped,
+std::vector<FieldError> compare_fields(const mesh::Sample& source, const mesh::MappedSample& mapped,
                                        const mesh::Sample& reference) {
   std::vector<FieldError> out;
   for (std::size_t f = 0; f < source.fields.size() && f < mapped.fields.size(); ++f) {
     const mesh::Field& sf = source.fields[f];
     if (sf.location != 0) continue;
-    const auto r = std::find_if(
-        reference.fields.begin(), reference.fields.end(), [&](const mesh::Field& g) {
+    const auto r =
+        std::find_if(reference.fields.begin(), reference.fields.end(), [&](const mesh::Field& g) {
           return g.name == sf.name && g.location == 0 && g.components == sf.components;
         });
     if (r == reference.fields.end() || r->values.size() != mapped.fields[f].size()) continue;
@@ -95,8 +93,7 @@ PairQuality measure_pair(const mesh::Sample& source, const mesh::Sample& canonic
   const mesh::SurfaceIndex src(source.vertices, source.triangles);
   const mesh::SurfaceIndex map(mapped.vertices, canonical.triangles);
   std::vector<double> d = mesh::vertex_distances(mapped.vertices, canonical.triangles, src);
-  const std::vector<double> back =
-      mesh::vertex_distances(source.vertices, source.triangles, map);
+  const std::vector<double> back = mesh::vertex_distances(source.vertices, source.triangles, map);
   d.insert(d.end(), back.begin(), back.end());
   for (double& x : d) x /= diag;
   if (!d.empty()) {

@@ -48,8 +48,7 @@ struct FieldError {
 /// `reference`, a sample on the mapped mesh (the host's simulate there, field_transfer.h's
 /// mesh_for_simulation):
 /// one entry per source field that `reference` also has, in the source's order.
-std::vector<FieldError> compare_fields(const mesh::Sample& source,
-                                       const mesh::MappedSample& mapped,
+std::vector<FieldError> compare_fields(const mesh::Sample& source, const mesh::MappedSample& mapped,
                                        const mesh::Sample& reference);
 
 /// Area of the triangles whose tag is in `tags` with positions `vertices`.

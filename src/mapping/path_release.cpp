@@ -4,15 +4,14 @@
 #include <cmath>
 #include <limits>
 
-#include "mesh/surface_distance.h"
 #include "mapping/mean_value_param.h"
+#include "mesh/surface_distance.h"
 
 namespace cadinterp::mapping {
 
 void release_traced_paths(const mesh::Sample& source, const Surface& ss,
-                          const mesh::Sample& canonical,
-                          const std::vector<std::uint32_t>& movable, int sweeps,
-                          std::vector<SurfacePoint>& where,
+                          const mesh::Sample& canonical, const std::vector<std::uint32_t>& movable,
+                          int sweeps, std::vector<SurfacePoint>& where,
                           const std::function<void(const SurfacePoint&, double*)>& place,
                           std::vector<double>& x) {
   if (movable.empty() || sweeps <= 0) return;
@@ -93,7 +92,7 @@ void release_traced_paths(const mesh::Sample& source, const Surface& ss,
         const std::uint32_t* tv = &source.triangles[3 * std::size_t(t)];
         double w[3], p[3] = {0, 0, 0};
         mesh::closest_point_weights(goal, ss.position(tv[0]), ss.position(tv[1]),
-                                       ss.position(tv[2]), w);
+                                    ss.position(tv[2]), w);
         for (int k = 0; k < 3; ++k)
           for (int a = 0; a < 3; ++a) p[a] += w[k] * ss.position(tv[k])[a];
         const double d = std::hypot(p[0] - goal[0], p[1] - goal[1], p[2] - goal[2]);

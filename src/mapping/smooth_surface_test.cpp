@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "mesh/sample.h"
 #include "mapping/smooth_surface.h"
+#include "mesh/sample.h"
 
 namespace {
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "mesh/sample.h"
 #include "cadinterp/cadinterp_builder.h"
+#include "mesh/sample.h"
 
 /// The builder-owned object host callbacks write into (cadinterp_builder.h).
 struct cadinterp_sample {

@@ -7,9 +7,9 @@
 #include <cstring>
 #include <vector>
 
+#include "cadinterp/cadinterp_builder.h"
 #include "mesh/host_call.h"
 #include "mesh/sample.h"
-#include "cadinterp/cadinterp_builder.h"
 
 namespace {
 
