@@ -1,6 +1,6 @@
 // The builder (paper §4.2 over meshes): adaptive sampling of a host's meshes and fields on the
 // K-d tree, each element's canonical mesh at its centre, the neighbourhood samples mapped into
-// its combinatorics (mapping_hook.h), and the asset content for the writer.
+// its combinatorics (mesh/mapper.h), and the asset content for the writer.
 //
 // Refinement test, per element and at its centre and face centres (core/adaptive.h):
 //   error = max( H(P(y), p(y)) / (diag(p(y)) * geometry_tolerance),
@@ -78,12 +78,12 @@ struct BuildOptions {
   NeighbourTransfer neighbour_transfer = NeighbourTransfer::Fallback;  ///< cubic only
   bool measure_neighbour_transfer = false;  ///< fills the comparison in BuildResult::neighbour
   /// cadinterp_build_options::simulate_mapped: a mapped term's fields are the host's simulate on
-  /// the mapped mesh (mapping component only; terms carried through a shared sample by the cubic
-  /// neighbour transfer keep the carried fields).
+  /// the mapped mesh (terms carried through a shared sample by the cubic neighbour transfer keep
+  /// the carried fields).
   bool simulate_mapped = false;
   /// cadinterp_build_options::canonical_refinement: rounds of canonical refinement
   /// (mapping/canonical_refine.h) for an element whose mapped terms depart from their own
-  /// boundary by more than 0.7 x geometry_tolerance (0: none; mapping component only).
+  /// boundary by more than 0.7 x geometry_tolerance (0: none).
   int canonical_refinement = 3;
 };
 
@@ -153,8 +153,8 @@ struct BuildResult {
 };
 
 /// The mapper a build uses unless BuildOptions::mapper says otherwise: the mesh mapper of paper
-/// §6 (src/mapping) when the mapping component is built, else IdentityMapper. Either way,
-/// samples of equal combinatorics are blended vertex by vertex without calling it.
+/// §6 (src/mapping). Samples of equal combinatorics are blended vertex by vertex without calling
+/// it.
 const Mapper& default_mapper();
 
 /// Runs the build. Throws BuildCancelled, BuildInfeasible, StoreError (sample_store.h),

@@ -18,8 +18,7 @@ struct AccuracyReport {
   int lost = 0;        ///< of those, points the host regenerates (count_lost only)
   double geometry_max = 0, geometry_p99 = 0;  ///< symmetric Hausdorff / bbox diagonal
   double field_max = 0, field_p99 = 0;        ///< per-vertex fields: max |error| / field range
-  /// Feasible points whose fields were compared (meshes that differ from the host's need the
-  /// mapping component's point location; without it they are left out).
+  /// Feasible points whose fields were compared.
   int field_points = 0;
   std::vector<std::string> field_names;    ///< the per-vertex fields compared, asset order
   std::vector<double> field_max_by_field;  ///< max |error| / range of each of them
@@ -69,7 +68,7 @@ struct SplitHost {
 /// geometry by the symmetric Hausdorff distance of the boundary surfaces (meshes may differ in
 /// combinatorics), per-vertex fields at each evaluated vertex: against the host's value at the
 /// same vertex when the meshes are equal, else against the host's field interpolated in the
-/// host's tet containing the evaluated vertex (needs the mapping component).
+/// host's tet containing the evaluated vertex (mapping::TetLocator).
 /// Throws std::runtime_error when the asset cannot be opened or a feasible eval fails.
 /// When `truth` is given (field index in the asset, x, a point, out: its components; false if
 /// unknown), per-vertex fields are compared with it at the evaluated vertex positions instead,
@@ -78,7 +77,7 @@ struct SplitHost {
 using FieldTruthAt = std::function<bool(int field, const double* x, const double* p, double* v)>;
 /// With `count_lost`, the host is also asked at every point the runtime calls infeasible, to
 /// count the feasible points the asset lost (`lost`).
-/// With `on_evaluated_mesh` (needs the mapping component and a host with simulate), also the
+/// With `on_evaluated_mesh` (needs a host with simulate), also the
 /// evaluated_mesh_* statistics: one more simulate per feasible point.
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& truth = nullptr,

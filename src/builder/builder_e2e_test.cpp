@@ -460,8 +460,7 @@ TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
   }
 }
 
-// The default mapper is the mesh mapper when the mapping component is built, and its name is
-// what the asset's provenance records.
+// The default mapper is the mesh mapper, and its name is what the asset's provenance records.
 TEST(EndToEnd, DefaultMapperIsTheMeshMapperAndNamedInProvenance) {
   EXPECT_STREQ(builder::default_mapper().name(), "mesh-v9");
   const std::string json =
