@@ -2,6 +2,7 @@
 # Installs what is missing, builds every preset the tests use, and runs every test:
 #   dev     Debug, -Werror: everything must compile warning-free
 #   release the full suite (unit + property tests) and a benchmark smoke run
+#   install `cmake --install` staged under build/stage, and programs built against it alone
 #   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan    the tests labelled 'concurrency' under ThreadSanitizer
 #   wasm    the runtime in WebAssembly: its JS API under Node against the conformance cases
@@ -43,6 +44,9 @@ step "release: benchmark smoke runs (measure nothing, prove the benchmarks run)"
 ./build/release/src/mapping/mapping_bench --benchmark_min_time=0.001 >/dev/null
 ./build/release/examples/physics/physics_benchmark --benchmark_min_time=0.001 \
   --benchmark_filter='order1/1377' >/dev/null
+
+step "install: consumers of a staged install (CMake package, pkg-config, static link)"
+BUILD_DIR=build/release scripts/test-install.sh
 
 step "asan: ASan + UBSan, every test"
 cmake --preset asan >/dev/null
