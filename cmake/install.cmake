@@ -47,6 +47,7 @@ endif()
 
 install(EXPORT cadinterpTargets NAMESPACE cadinterp:: FILE cadinterpTargets.cmake
         DESTINATION ${CADINTERP_INSTALL_CMAKEDIR} COMPONENT runtime_dev)
+get_target_property(CADINTERP_STATIC_PACKAGES cadinterp_static CADINTERP_PACKAGES)
 configure_package_config_file(${CMAKE_CURRENT_LIST_DIR}/cadinterpConfig.cmake.in
   ${PROJECT_BINARY_DIR}/cadinterpConfig.cmake INSTALL_DESTINATION ${CADINTERP_INSTALL_CMAKEDIR})
 # The C ABI keeps its promises within a major version (CONVENTIONS.md).
@@ -58,13 +59,15 @@ install(FILES ${PROJECT_BINARY_DIR}/cadinterpConfig.cmake
 
 # pkg-config: the .pc names the installed directories (absolute, as Debian's own do), so a staged
 # install is read with PKG_CONFIG_SYSROOT_DIR. For a static link (pkg-config --static) it lists
-# what libcadinterp.a's objects call: the packages with a .pc in Requires.private, and in
-# Libs.private meshoptimizer (no .pc in Debian) and the C++ runtime, which a C program's link
-# does not add by itself (the C++ compiler's implicit libraries the C compiler's lack).
-set(_cxx_runtime "")
+# what libcadinterp.a's objects call (src/runtime/static.cmake): packages with a .pc in
+# Requires.private, others and the C++ runtime in Libs.private. A C program's link does not add
+# the C++ runtime by itself: the C++ compiler's implicit libraries that the C compiler's lack.
+get_target_property(CADINTERP_STATIC_PC_REQUIRES cadinterp_static CADINTERP_PC_REQUIRES)
+get_target_property(CADINTERP_STATIC_PC_LIBS cadinterp_static CADINTERP_PC_LIBS)
+set(CADINTERP_STATIC_PC_CXX "")
 foreach(_l IN LISTS CMAKE_CXX_IMPLICIT_LINK_LIBRARIES)
   if(NOT _l IN_LIST CMAKE_C_IMPLICIT_LINK_LIBRARIES)
-    string(APPEND _cxx_runtime " -l${_l}")
+    string(APPEND CADINTERP_STATIC_PC_CXX " -l${_l}")
   endif()
 endforeach()
 configure_file(${CMAKE_CURRENT_LIST_DIR}/cadinterp.pc.in ${PROJECT_BINARY_DIR}/cadinterp.pc @ONLY)
