@@ -58,7 +58,13 @@ add_library(cadinterp_static STATIC
   $<TARGET_OBJECTS:cadinterp_format>
   $<TARGET_OBJECTS:cadinterp_runtime_kernels>
   ${_static_objects})
-set_target_properties(cadinterp_static PROPERTIES OUTPUT_NAME cadinterp)
+# libcadinterp.a beside libcadinterp.so (or MinGW's import library libcadinterp.dll.a); MSVC
+# names the DLL's import library cadinterp.lib, so the archive takes another name there.
+if(MSVC)
+  set_target_properties(cadinterp_static PROPERTIES OUTPUT_NAME cadinterp_static)
+else()
+  set_target_properties(cadinterp_static PROPERTIES OUTPUT_NAME cadinterp)
+endif()
 target_compile_definitions(cadinterp_static PRIVATE CADINTERP_BUILDING_LIBRARY
   PUBLIC CADINTERP_STATIC)
 target_include_directories(cadinterp_static PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>)
