@@ -22,3 +22,9 @@ foreach(_suite conformance runtime errors builder example)
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(python_${_suite} PROPERTIES LABELS python ENVIRONMENT "${_env}")
 endforeach()
+
+add_test(NAME python_staged_install
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/tests/staged_install.sh ${PROJECT_BINARY_DIR}
+                 ${CMAKE_INSTALL_PREFIX} ${CADINTERP_PYTHON_INSTALL_DIR} ${CMAKE_INSTALL_LIBDIR}
+                 ${CADINTERP_PYTHON} ${PROJECT_SOURCE_DIR}/conformance/cases/valid/k2_linear/asset.cadi)
+set_tests_properties(python_staged_install PROPERTIES LABELS python SKIP_RETURN_CODE 77)
