@@ -135,21 +135,31 @@ py::dict stacked_gradient(const std::vector<cadinterp_properties>& g) {
   return d;
 }
 
-}  // namespace
-
-py::object Asset::eval(py::handle x, py::handle fields) const {
-  const auto p = pool();
-  const auto xa = as_point(x, k_);
-  const FieldSelection sel = select(fields);
-  auto lease = std::make_unique<Lease>(p);
-  cadinterp_mesh m{};
+/// Runs `call(ws)` on a workspace leased from the asset's pool, without the GIL: the lease when
+/// it succeeds, the error of its status (with the workspace's message) otherwise.
+template <class Call>
+std::unique_ptr<Lease> leased_call(const Asset& asset, const py::array_t<double>& x, Call&& call) {
+  auto lease = std::make_unique<Lease>(asset.pool());
   cadinterp_status s;
   {
     py::gil_scoped_release release;
-    s = cadinterp_eval(lease->ws(), xa.data(), sel.indices.data(),
-                       static_cast<int>(sel.indices.size()), &m);
+    s = call(lease->ws());
   }
-  if (s != CADINTERP_OK) fail(s, lease->message(), xa.data());
+  if (s != CADINTERP_OK) asset.fail(s, lease->message(), x.data());
+  return lease;
+}
+
+}  // namespace
+
+py::object Asset::eval(py::handle x, py::handle fields) const {
+  pool();  // a closed asset is a ValueError before the arguments are looked at
+  const auto xa = as_point(x, k_);
+  const FieldSelection sel = select(fields);
+  cadinterp_mesh m{};
+  auto lease = leased_call(*this, xa, [&](cadinterp_workspace* ws) {
+    return cadinterp_eval(ws, xa.data(), sel.indices.data(), static_cast<int>(sel.indices.size()),
+                          &m);
+  });
   return make_mesh(*this, std::move(lease), m, sel);
 }
 
@@ -194,18 +204,14 @@ py::list Asset::eval_many(py::handle xs, py::handle fields, int threads,
 }
 
 py::object Asset::grad(py::handle x, py::handle fields) const {
-  const auto p = pool();
+  pool();
   const auto xa = as_point(x, k_);
   const FieldSelection sel = select(fields);
-  auto lease = std::make_unique<Lease>(p);
   cadinterp_mesh_grad g{};
-  cadinterp_status s;
-  {
-    py::gil_scoped_release release;
-    s = cadinterp_grad(lease->ws(), xa.data(), sel.indices.data(),
-                       static_cast<int>(sel.indices.size()), &g);
-  }
-  if (s != CADINTERP_OK) fail(s, lease->message(), xa.data());
+  auto lease = leased_call(*this, xa, [&](cadinterp_workspace* ws) {
+    return cadinterp_grad(ws, xa.data(), sel.indices.data(), static_cast<int>(sel.indices.size()),
+                          &g);
+  });
   uint32_t tets = 0;
   if (cadinterp_element_mesh_size(lease->asset(), g.element, nullptr, &tets, nullptr) !=
       CADINTERP_OK)
@@ -272,21 +278,17 @@ py::array_t<double> Asset::vjp(py::handle x, py::handle dvertices, py::handle df
 
 py::dict Asset::eval_properties(py::handle x, double density, py::handle direction,
                                 bool gradient) const {
-  const auto p = pool();
+  pool();
   const auto xa = as_point(x, k_);
   auto dir = CArray<double>::ensure(direction);
   if (!dir || dir.ndim() != 1 || dir.shape(0) != 3)
     throw py::value_error("direction must be 3 real numbers");
-  Lease lease(p);
   cadinterp_properties props{};
   std::vector<cadinterp_properties> grads(gradient ? std::size_t(k_) : 0);
-  cadinterp_status s;
-  {
-    py::gil_scoped_release release;
-    s = cadinterp_eval_properties(lease.ws(), xa.data(), density, dir.data(), &props,
-                                  gradient ? grads.data() : nullptr);
-  }
-  if (s != CADINTERP_OK) fail(s, lease.message(), xa.data());
+  leased_call(*this, xa, [&](cadinterp_workspace* ws) {
+    return cadinterp_eval_properties(ws, xa.data(), density, dir.data(), &props,
+                                     gradient ? grads.data() : nullptr);
+  });
   py::dict d = properties_dict(props);
   if (gradient) d["gradient"] = stacked_gradient(grads);
   return d;

@@ -33,3 +33,12 @@ def box_asset(tmp_path_factory):
     report = cadinterp.build(host, path, geometry_tolerance=1e-3, field_tolerance=1e-3,
                              threads=2)
     return path, report, host
+
+
+@pytest.fixture(scope="session")
+def every_evaluation():
+    """every_evaluation(asset, x): a call of each evaluation of x, for error-path tests."""
+    def calls(asset, x):
+        return [lambda: asset.eval(x), lambda: asset.grad(x), lambda: asset.vjp(x),
+                lambda: asset.eval_properties(x), lambda: asset.eval_many([x])]
+    return calls

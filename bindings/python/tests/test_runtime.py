@@ -37,21 +37,16 @@ def test_description(cubic, cases):
     assert cadinterp.format_version() >= (1, 1)
 
 
-def test_infeasible_corner(cases):
+def test_infeasible_corner(cases, every_evaluation):
     # Infeasible points with messages are checked on a built asset (test_builder.py).
     with cadinterp.Asset(cases / "valid" / "k2_infeasible" / "asset.cadi") as a:
         X = points(a, 200, seed=2)
         feasible = np.array([a.locate(x)[1] for x in X])
         assert 0 < feasible.sum() < len(X), "the case has an infeasible corner"
         for x in X[~feasible][:5]:
-            with pytest.raises(cadinterp.InfeasibleError):
-                a.eval(x)
-            with pytest.raises(cadinterp.InfeasibleError):
-                a.grad(x)
-            with pytest.raises(cadinterp.InfeasibleError):
-                a.vjp(x)
-            with pytest.raises(cadinterp.InfeasibleError):
-                a.eval_properties(x)
+            for call in every_evaluation(a, x):
+                with pytest.raises(cadinterp.InfeasibleError):
+                    call()
         assert all(m is None for m in a.eval_many(X[~feasible], errors="none"))
 
 
