@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
@@ -35,9 +36,25 @@ void check_sample(cadinterp_status s, const std::string& what) {
 struct Bridge {
   py::object host, adapter, progress;
   int k = 0;
+  bool has_references = false;
   /// regenerate's mesh dict per sample, for the references callback of the same x (the
-  /// protocol hands references the dict regenerate returned). Touched with the GIL only.
-  std::unordered_map<const cadinterp_sample*, py::object> meshes;
+  /// protocol hands references the dict regenerate returned), with the thread that made it.
+  /// Touched with the GIL only.
+  struct Pending {
+    py::object mesh;
+    std::thread::id thread;
+  };
+  std::unordered_map<const cadinterp_sample*, Pending> meshes;
+
+  /// Keeps `mesh` for references. A thread calls one sample's callbacks in turn (regenerate,
+  /// then references unless the mesh was refused), so what it left before is dropped here.
+  void keep_mesh(const cadinterp_sample* sample, py::object mesh) {
+    if (!has_references) return;
+    const std::thread::id self = std::this_thread::get_id();
+    for (auto it = meshes.begin(); it != meshes.end();)
+      it = it->second.thread == self ? meshes.erase(it) : std::next(it);
+    meshes[sample] = Pending{std::move(mesh), self};
+  }
   /// A BaseException from a callback or from progress: the build is cancelled and build()
   /// raises it.
   std::optional<py::error_already_set> pending;
@@ -92,7 +109,7 @@ extern "C" cadinterp_status regenerate_cb(void* user, const double* x, cadinterp
                                            std::size_t(t.shape(0)), f.data(), tags.data(),
                                            std::size_t(f.shape(0))),
                  "regenerate's mesh");
-    b.meshes[out] = r[0];
+    b.keep_mesh(out, r[0]);
   });
 }
 
@@ -101,7 +118,7 @@ extern "C" cadinterp_status references_cb(void* user, const double* x, cadinterp
   return b.guarded(out, [&] {
     py::object mesh = py::none();
     if (auto it = b.meshes.find(out); it != b.meshes.end()) {
-      mesh = it->second;
+      mesh = it->second.mesh;
       b.meshes.erase(it);
     }
     // ([(id, position)], [(id_a, id_b, polyline)], [(name, kind, face_tags)]), converted.
@@ -248,6 +265,7 @@ cadinterp_host make_host(Bridge& bridge, const py::tuple& d, std::vector<std::st
                       p[py::int_(2)].cast<double>()});
   }
   bridge.k = static_cast<int>(params.size());
+  bridge.has_references = d[4].cast<bool>();
   cadinterp_host h{};
   h.struct_size = sizeof h;
   h.name = strings[0].c_str();
@@ -256,7 +274,7 @@ cadinterp_host make_host(Bridge& bridge, const py::tuple& d, std::vector<std::st
   h.parameters = params.data();
   h.user = &bridge;
   h.regenerate = regenerate_cb;
-  h.references = d[4].cast<bool>() ? references_cb : nullptr;
+  h.references = bridge.has_references ? references_cb : nullptr;
   h.simulate = d[5].cast<bool>() ? simulate_cb : nullptr;
   h.thread_safe = d[3].cast<bool>() ? 1 : 0;
   return h;
