@@ -68,7 +68,7 @@ def median_seconds(fn, number, repeat):
     return statistics.median(timeit.repeat(fn, number=number, repeat=repeat)) / number
 
 
-def bench(path, fields_mode, build, n=1000, repeat=15):
+def bench(path, fields_mode, build, n=1000, repeat=31):
     a = cadinterp.Asset(path)
     X = np.random.default_rng(0).uniform(a.bounds[:, 0], a.bounds[:, 1], (n, a.parameter_count))
     feasible = [x for x in X if a.locate(x)[1]]
