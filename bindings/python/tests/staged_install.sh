@@ -35,3 +35,4 @@ with cadinterp.Asset(asset) as a:
     m = a.eval(a.bounds.mean(axis=1))
 print(f"import cadinterp {cadinterp.__version__} from {cadinterp.__file__}: {m}")
 PY
+rm -rf "$stage"  # the whole project's install: no need to keep it
