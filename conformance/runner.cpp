@@ -11,14 +11,22 @@
 //   dpositions v...                  K lines: d positions / d x_k
 //   field0 v... / dfield0 v...       field 0 and its K derivative arrays
 //   unit I U                         field I's unit is U ("-": none, cadinterp_field_unit gives "")
+//
+// --dump DIR writes what the C ABI returned, as raw bytes, for other bindings to compare against
+// bit for bit (bindings/python's conformance test): DIR/GROUP/CASE/open (the status, text), and per
+// `status` line N: pN_status, and on success pN_element (text), pN_positions, pN_tets,
+// pN_triangles, pN_tags, pN_field0 (the whole array) from cadinterp_eval, then pN_grad_positions,
+// pN_dpositions, pN_dfield0 from cadinterp_grad.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -27,6 +35,20 @@
 namespace fs = std::filesystem;
 
 namespace {
+
+/// Raw outputs for --dump (see the top of this file); does nothing without a directory.
+struct Dump {
+  fs::path dir;
+  void write(const std::string& name, const void* data, std::size_t bytes) const {
+    if (dir.empty()) return;
+    std::ofstream out(dir / name, std::ios::binary);
+    out.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
+    if (!out) throw std::runtime_error("cannot write " + (dir / name).string());
+  }
+  void text(const std::string& name, const std::string& value) const {
+    write(name, value.data(), value.size());
+  }
+};
 
 const std::map<std::string, cadinterp_status> kStatus = {
     {"CADINTERP_OK", CADINTERP_OK},
@@ -72,7 +94,15 @@ void compare(const std::string& what, const float* got, const std::vector<double
                     ", expected " + std::to_string(want[i]));
 }
 
-void run_case(const fs::path& dir) {
+/// Values of field 0 in a call's output: #V or #T rows (its location) of its components.
+std::size_t field0_values(const cadinterp_asset* asset, std::uint32_t vertices,
+                          std::uint32_t tets) {
+  cadinterp_field_info f{};
+  if (cadinterp_field(asset, 0, &f) != CADINTERP_OK) throw Failure("cadinterp_field 0 failed");
+  return std::size_t(f.location == CADINTERP_PER_TET ? tets : vertices) * std::size_t(f.components);
+}
+
+void run_case(const fs::path& dir, const Dump& dump) {
   std::ifstream exp(dir / "expected.txt");
   if (!exp) throw Failure("no expected.txt");
   cadinterp_asset* asset = nullptr;
@@ -89,7 +119,7 @@ void run_case(const fs::path& dir) {
   std::vector<double> x;
   cadinterp_mesh mesh{};
   cadinterp_mesh_grad grad{};
-  int dpos = 0, dfield = 0;
+  int dpos = 0, dfield = 0, points = 0;
   std::string line;
   while (std::getline(exp, line)) {
     std::istringstream in(line);
@@ -99,6 +129,7 @@ void run_case(const fs::path& dir) {
       std::string s;
       in >> s;
       const cadinterp_status got = cadinterp_open((dir / "asset.cadi").c_str(), &asset);
+      dump.text("open", std::to_string(got));
       if (got != parse_status(s))
         throw Failure(std::string("open: got ") + cadinterp_status_string(got) + " (" +
                       cadinterp_open_error() + "), expected " + s);
@@ -129,10 +160,21 @@ void run_case(const fs::path& dir) {
       const int fields[1] = {0};
       const int nf = cadinterp_field_count(asset) > 0 ? 1 : 0;
       const cadinterp_status got = cadinterp_eval(ws, x.data(), fields, nf, &mesh);
+      const std::string p = "p" + std::to_string(points++) + "_";
+      dump.text(p + "status", std::to_string(got));
       if (got != parse_status(s))
         throw Failure(std::string("eval: got ") + cadinterp_status_string(got) + " (" +
                       cadinterp_workspace_error(ws) + "), expected " + s);
       if (got == CADINTERP_OK) {
+        const std::size_t v = mesh.vertex_count, t = mesh.tet_count, f = mesh.triangle_count;
+        const std::size_t nf0 = nf ? field0_values(asset, mesh.vertex_count, mesh.tet_count) : 0;
+        const std::size_t k = x.size();
+        dump.text(p + "element", std::to_string(mesh.element));
+        dump.write(p + "positions", mesh.positions, 3 * v * sizeof(float));
+        dump.write(p + "tets", mesh.tets, 4 * t * sizeof(std::uint32_t));
+        dump.write(p + "triangles", mesh.triangles, 3 * f * sizeof(std::uint32_t));
+        dump.write(p + "tags", mesh.triangle_tags, f * sizeof(std::int32_t));
+        if (nf) dump.write(p + "field0", mesh.fields[0], nf0 * sizeof(float));
         // eval's arrays live until the next call: copy what later lines compare.
         static thread_local std::vector<float> pos, fld;
         pos.assign(mesh.positions, mesh.positions + 3 * mesh.vertex_count);
@@ -141,6 +183,9 @@ void run_case(const fs::path& dir) {
         const std::uint32_t nv = mesh.vertex_count;
         if (cadinterp_grad(ws, x.data(), fields, nf, &grad) != CADINTERP_OK)
           throw Failure("grad failed");
+        dump.write(p + "grad_positions", grad.positions, 3 * v * sizeof(float));
+        dump.write(p + "dpositions", grad.dpositions, k * 3 * v * sizeof(float));
+        if (nf) dump.write(p + "dfield0", grad.dfields[0], k * nf0 * sizeof(float));
         mesh = cadinterp_mesh{};
         mesh.element = element;
         mesh.vertex_count = nv;
@@ -177,8 +222,10 @@ void run_case(const fs::path& dir) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: %s CASES_DIR   (e.g. conformance/cases)\n", argv[0]);
+  Dump dump;
+  if (argc == 4 && std::string(argv[2]) == "--dump") dump.dir = argv[3];
+  if (argc != 2 && dump.dir.empty()) {
+    std::fprintf(stderr, "usage: %s CASES_DIR [--dump DIR]   (e.g. conformance/cases)\n", argv[0]);
     return 2;
   }
   int passed = 0, failed = 0;
@@ -190,7 +237,12 @@ int main(int argc, char** argv) {
   for (const fs::path& c : cases) {
     const std::string name = c.parent_path().filename().string() + "/" + c.filename().string();
     try {
-      run_case(c);
+      Dump case_dump;
+      if (!dump.dir.empty()) {
+        case_dump.dir = dump.dir / name;
+        fs::create_directories(case_dump.dir);
+      }
+      run_case(c, case_dump);
       std::printf("PASS %s\n", name.c_str());
       ++passed;
     } catch (const std::exception& e) {

@@ -36,6 +36,12 @@ PACKAGES=(
   emscripten                        # the WebAssembly runtime (bindings/wasm); its codec sources
                                     # come from Debian source packages (fetch-wasm-sources.sh)
   chromium                          # the explorer's end-to-end tests (headless)
+  # The Python package (bindings/python), built and tested with Debian's /usr/bin/python3.
+  python3-dev                       # Python.h for the extension module
+  pybind11-dev
+  python3-numpy
+  python3-pytest                    # its tests (ctest -L python)
+  python3-matplotlib                # examples/sweep.py and its test
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and
