@@ -12,6 +12,7 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <set>
 #include <thread>
 #include <tuple>
 
@@ -513,6 +514,21 @@ AssetReader::Bytes AssetReader::blob(const void* ref) const {
   // Decoded in place: no copy. Should a mapped file change after the check, the decoders still
   // never leave the blob's bounds (codec.h), so the worst case is wrong values, never a crash.
   return {p, n};
+}
+
+void AssetReader::verify_blobs() const {
+  std::set<std::uint64_t> seen;  // blob offsets: identical references share one blob (SPEC.md)
+  const auto verify = [&](const fb::BlobRef* r) {
+    if (r && r->size() > 0 && seen.insert(r->offset()).second) blob(r);
+  };
+  for (const fb::ElementMeshes* m : *index_->elements()) {
+    for (const fb::BlobRef* r :
+         {m->tets(), m->triangles(), m->triangle_tags(), m->canonical_positions()})
+      verify(r);
+    for (const auto* list : {m->positions(), m->fields()})
+      if (list)
+        for (const fb::BlobRef* r : *list) verify(r);
+  }
 }
 
 AssetReader::TopologyKey AssetReader::topology_key(int e) const {

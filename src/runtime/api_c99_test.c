@@ -21,7 +21,7 @@ int main(void) {
   const char* unit = "untouched";
   int major = -1, minor = -1, s;
 
-  CHECK(strcmp(cadinterp_version(), "0.1.0") == 0);
+  CHECK(strcmp(cadinterp_version(), "1.0.0") == 0);
   CHECK(cadinterp_version_number() == CADINTERP_VERSION_NUMBER);
   cadinterp_format_version(&major, &minor);
   CHECK(major == 1 && minor == 1); /* 1.1: field units */
