@@ -36,6 +36,9 @@ PACKAGES=(
   emscripten                        # the WebAssembly runtime (bindings/wasm); its codec sources
                                     # come from Debian source packages (fetch-wasm-sources.sh)
   chromium                          # the explorer's end-to-end tests (headless)
+  # The frozen runtime ABI (abi/): abidw and abidiff run by the abi_check ctests; without them
+  # the checks skip, so CI must have them.
+  abigail-tools
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and
