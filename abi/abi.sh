@@ -12,10 +12,12 @@ set -euo pipefail
 
 # Flags that make the dump depend on the public ABI only: types declared outside the public
 # headers are dropped, only exported interfaces are read, and no path, location, DT_NEEDED list
-# or sequence-numbered type id (which shifts when anything is added) is written.
+# or sequence-numbered type id (which shifts when anything is added) is written. The translation
+# unit's path is removed too: it is relative or absolute depending on ccache's base_dir.
 dump() {
   abidw --headers-dir "$2" --drop-private-types --exported-interfaces-only --no-corpus-path \
-    --no-comp-dir-path --no-show-locs --no-elf-needed --type-id-style hash "$1" --out-file "$3"
+    --no-comp-dir-path --no-show-locs --no-elf-needed --type-id-style hash "$1" |
+    sed -E "s/^( *<abi-instr [^>]*) path='[^']*'/\1/" >"$3"
 }
 
 case "${1:-}" in

@@ -62,8 +62,10 @@ typedef struct cadinterp_workspace cadinterp_workspace;
 CADINTERP_API const char* cadinterp_version(void);
 /** CADINTERP_VERSION_NUMBER of the library actually linked. Thread-safe. */
 CADINTERP_API unsigned cadinterp_version_number(void);
-/** Newest asset format this library reads: major and minor (either pointer may be NULL: that
- *  value is not written). Thread-safe. */
+/** Asset format version this library implements: major and minor (either pointer may be NULL:
+ *  that value is not written). It also reads assets of newer minors of that major, ignoring
+ *  what it does not know, unless one lists a required feature it lacks (fileformat/SPEC.md,
+ *  "Versions and features"). Thread-safe. */
 CADINTERP_API void cadinterp_format_version(int* major, int* minor);
 /** Fixed English text of a status (static storage; never NULL; "unknown status" for a value
  *  this library does not define). Thread-safe. */
@@ -83,7 +85,10 @@ CADINTERP_API const char* cadinterp_status_string(cadinterp_status status);
  *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument; CADINTERP_E_IO if the file cannot be
  *         opened or mapped, or is not a regular file (a directory, a FIFO, a device: refused
  *         without reading from it or waiting for a writer); the format errors of the header
- *         and the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT); CADINTERP_E_OUT_OF_MEMORY
+ *         and the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT), among them
+ *         CADINTERP_E_UNSUPPORTED_VERSION for another format major or for a required feature
+ *         this library does not implement (the message names the feature); an asset of a newer
+ *         minor opens otherwise; CADINTERP_E_OUT_OF_MEMORY
  */
 CADINTERP_API cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out);
 
@@ -125,7 +130,7 @@ CADINTERP_API cadinterp_status cadinterp_open_memory(const void* data, size_t si
  *   newer member to be left at its default; otherwise CADINTERP_E_INVALID_ARGUMENT, with a message
  *   naming the offset (an option this library cannot honour is refused, never ignored).
  * Members are laid out without padding (flags is 64-bit) on every ABI, so no uninitialised
- * padding byte can be mistaken for a newer member.
+ * padding byte can be mistaken for a newer member; appended members must keep it so.
  */
 typedef struct cadinterp_open_options {
   /** sizeof(cadinterp_open_options) as the caller compiled it. */

@@ -51,7 +51,7 @@ enum class Status : int {
   OutOfMemory = 2,
   Io = 3,                  ///< cannot open, map or read the file
   BadMagic = 4,            ///< not a cadinterp asset
-  UnsupportedVersion = 5,  ///< another format major, or a newer minor
+  UnsupportedVersion = 5,  ///< another format major, or an unknown required feature
   Truncated = 6,           ///< the file is shorter than its header says
   CorruptIndex = 7,        ///< the index fails verification (structure, sizes, ranges, values)
   ChecksumMismatch = 8,    ///< index or blob bytes differ from their XXH64

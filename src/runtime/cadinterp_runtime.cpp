@@ -76,9 +76,10 @@ cadinterp_status open_with(
     t_open_error = "out is NULL";
     return CADINTERP_E_INVALID_ARGUMENT;
   }
+  // Inside the guard: reading the options builds messages, which allocate.
+  CADINTERP_CATCH_BEGIN
   cadinterp_open_options o;
   if (const cadinterp_status s = read_open_options(options, &o)) return s;
-  CADINTERP_CATCH_BEGIN
   auto asset = cadinterp::runtime::make_asset(make());
   if (o.cache_budget_bytes != 0) asset->cache.set_budget(o.cache_budget_bytes);
   if (o.flags & CADINTERP_OPEN_VERIFY_BLOBS) asset->reader->verify_blobs();
