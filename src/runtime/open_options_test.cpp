@@ -30,6 +30,15 @@ cadinterp_status open(const std::vector<std::uint8_t>& b, const cadinterp_open_o
   return cadinterp_open_memory_with_options(b.data(), b.size(), 0, o, a);
 }
 
+// Options from cadinterp_open_options_init with the budget and flags set.
+cadinterp_open_options options(std::size_t budget, std::uint64_t flags) {
+  cadinterp_open_options o;
+  cadinterp_open_options_init(&o);
+  o.cache_budget_bytes = budget;
+  o.flags = flags;
+  return o;
+}
+
 // Byte offset in the file of element e's canonical-positions blob (a blob no other element
 // shares: the canonical mesh is the host at the element's centre).
 std::size_t canonical_blob_byte(const std::vector<std::uint8_t>& b, int e) {
@@ -99,9 +108,8 @@ TEST(OpenOptions, LargerStructNeedsAZeroTail) {
 
 TEST(OpenOptions, UnknownFlagBitsAreRefusedByName) {
   const auto b = synthetic_bytes();
-  cadinterp_open_options o;
-  cadinterp_open_options_init(&o);
-  o.flags = CADINTERP_OPEN_VERIFY_BLOBS | (std::uint64_t(1) << 40) | 4;
+  const cadinterp_open_options o =
+      options(0, CADINTERP_OPEN_VERIFY_BLOBS | (std::uint64_t(1) << 40) | 4);
   cadinterp_asset* a = nullptr;
   EXPECT_EQ(open(b, &o, &a), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(a, nullptr);
@@ -114,9 +122,7 @@ TEST(OpenOptions, UnknownFlagBitsAreRefusedByName) {
 // CADINTERP_OPEN_VERIFY_BLOBS.
 TEST(OpenOptions, VerifyBlobsFindsACorruptBlobAtOpen) {
   auto b = synthetic_bytes();
-  cadinterp_open_options o;
-  cadinterp_open_options_init(&o);
-  o.flags = CADINTERP_OPEN_VERIFY_BLOBS;
+  const cadinterp_open_options o = options(0, CADINTERP_OPEN_VERIFY_BLOBS);
   cadinterp_asset* a = nullptr;
   ASSERT_EQ(open(b, &o, &a), CADINTERP_OK) << cadinterp_open_error();
   cadinterp_close(a);
@@ -138,9 +144,7 @@ TEST(OpenOptions, CacheBudgetIsHonoured) {
   const double xa[2] = {0.1, 0.1}, xb[2] = {0.9, 0.8};
   for (const std::size_t budget : {std::size_t(0), std::size_t(1)}) {
     auto b = synthetic_bytes();
-    cadinterp_open_options o;
-    cadinterp_open_options_init(&o);
-    o.cache_budget_bytes = budget;
+    const cadinterp_open_options o = options(budget, 0);
     cadinterp_asset* a = nullptr;
     ASSERT_EQ(open(b, &o, &a), CADINTERP_OK) << cadinterp_open_error();
     cadinterp_workspace* ws = nullptr;
