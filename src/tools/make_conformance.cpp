@@ -344,7 +344,8 @@ void write_invalid_case(const fs::path& root, const Invalid& c,
 // Forward compatibility (SPEC.md, "Versions and features"), with assets of the next minor
 // written through the test-only future schema: k1_linear with a table and a blob this runtime
 // does not know must evaluate exactly as k1_linear; the same with a required feature no reader
-// implements must be refused, naming the feature. Returns the number of cases written.
+// implements must be refused, naming the feature; with its minor set to 0 it is corrupt.
+// Returns the number of cases written.
 int write_forward_compat_cases(const fs::path& root, const std::vector<std::uint8_t>& base,
                                std::ofstream& index) {
   const Valid newer{
@@ -358,7 +359,17 @@ int write_forward_compat_cases(const fs::path& root, const std::vector<std::uint
   write_invalid_case(root, feature, base, index);
   std::ofstream(root / "invalid" / feature.name / "expected.txt", std::ios::app)
       << "open_message " << kUnknownFeature << "\n";
-  return 2;
+  // The version fields are 1.2 content: a file claiming minor 0 must not hold them (this also
+  // makes a flip of the header's minor down to 0 or 1 visible).
+  write_invalid_case(root,
+                     {"version_fields_in_minor_0", "open", "CADINTERP_E_CORRUPT_INDEX",
+                      "the asset of k1_newer_minor with the header's minor set to 0",
+                      [](auto& b) {
+                        b = tools::as_future_minor(b, {});
+                        set_le(b, 10, 0, 2);
+                      }},
+                     base, index);
+  return 3;
 }
 
 }  // namespace
