@@ -3,6 +3,7 @@
 //
 // Each case directory holds asset.cadi and expected.txt, a sequence of lines:
 //   open STATUS                      status of cadinterp_open
+//   open_message TEXT                cadinterp_open_error() contains TEXT
 //   tolerance T / grad_tolerance T   |got - expected| <= T * (1 + |expected|)
 //   point x1 .. xK                   the next expectations are at x (hex floats)
 //   status STATUS                    status of cadinterp_eval (and cadinterp_grad) at x
@@ -135,6 +136,12 @@ void run_case(const fs::path& dir, const Dump& dump) {
                       cadinterp_open_error() + "), expected " + s);
       if (got == CADINTERP_OK && cadinterp_workspace_create(asset, &ws) != CADINTERP_OK)
         throw Failure("workspace");
+    } else if (key == "open_message") {
+      std::string want;
+      std::getline(in >> std::ws, want);
+      if (std::string(cadinterp_open_error()).find(want) == std::string::npos)
+        throw Failure(std::string("open message '") + cadinterp_open_error() + "' lacks '" + want +
+                      "'");
     } else if (key == "unit") {
       int i = -1;
       std::string want;

@@ -42,6 +42,9 @@ PACKAGES=(
   python3-numpy
   python3-pytest                    # its tests (ctest -L python)
   python3-matplotlib                # examples/sweep.py and its test
+  # The frozen runtime ABI (abi/): abidw and abidiff run by the abi_check ctests; without them
+  # the checks skip, so CI must have them.
+  abigail-tools
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and

@@ -1,7 +1,8 @@
 /* cadinterp runtime: open a precomputed asset (.cadi) and evaluate the interpolated shape, its
  * fields and their derivatives at any parameter vector x.
  *
- * C99, stable ABI. Conventions (apply to every function unless its comment says otherwise):
+ * C99, frozen ABI 1: grows by addition only (include/README.md, "Stability"). Conventions (apply to
+ * every function unless its comment says otherwise):
  * - Every fallible function returns a cadinterp_status; CADINTERP_OK is 0. On failure its outputs
  *   are left untouched. Calls that take a workspace keep a message (cadinterp_workspace_error,
  *   unless the workspace itself is NULL), and so do cadinterp_open* (cadinterp_open_error);
@@ -61,8 +62,10 @@ typedef struct cadinterp_workspace cadinterp_workspace;
 CADINTERP_API const char* cadinterp_version(void);
 /** CADINTERP_VERSION_NUMBER of the library actually linked. Thread-safe. */
 CADINTERP_API unsigned cadinterp_version_number(void);
-/** Newest asset format this library reads: major and minor (either pointer may be NULL: that
- *  value is not written). Thread-safe. */
+/** Asset format version this library implements: major and minor (either pointer may be NULL:
+ *  that value is not written). It also reads assets of newer minors of that major, ignoring
+ *  what it does not know, unless one lists a required feature it lacks (fileformat/SPEC.md,
+ *  "Versions and features"). Thread-safe. */
 CADINTERP_API void cadinterp_format_version(int* major, int* minor);
 /** Fixed English text of a status (static storage; never NULL; "unknown status" for a value
  *  this library does not define). Thread-safe. */
@@ -82,7 +85,10 @@ CADINTERP_API const char* cadinterp_status_string(cadinterp_status status);
  *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument; CADINTERP_E_IO if the file cannot be
  *         opened or mapped, or is not a regular file (a directory, a FIFO, a device: refused
  *         without reading from it or waiting for a writer); the format errors of the header
- *         and the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT); CADINTERP_E_OUT_OF_MEMORY
+ *         and the index (CADINTERP_E_BAD_MAGIC ... CADINTERP_E_LIMIT), among them
+ *         CADINTERP_E_UNSUPPORTED_VERSION for another format major or for a required feature
+ *         this library does not implement (the message names the feature); an asset of a newer
+ *         minor opens otherwise; CADINTERP_E_OUT_OF_MEMORY
  */
 CADINTERP_API cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out);
 
@@ -99,6 +105,73 @@ CADINTERP_API cadinterp_status cadinterp_open(const char* path, cadinterp_asset*
  */
 CADINTERP_API cadinterp_status cadinterp_open_memory(const void* data, size_t size, int copy,
                                                      cadinterp_asset** out);
+
+/** Bit of cadinterp_open_options.flags: verify the checksum of every blob while opening (reads
+ *  the whole file once; a corrupt blob fails the open with CADINTERP_E_CHECKSUM), instead of
+ *  each blob when an evaluation first decodes it. For assets received from an untrusted or lossy
+ *  channel, where a failure at open is easier to handle than one in the middle of evaluations. */
+#define CADINTERP_OPEN_VERIFY_BLOBS ((uint64_t)1)
+/** Every flag bit this header defines; a library refuses any other bit (see the struct). */
+#define CADINTERP_OPEN_KNOWN_FLAGS CADINTERP_OPEN_VERIFY_BLOBS
+
+/**
+ * Options of cadinterp_open_with_options and cadinterp_open_memory_with_options. Zero means
+ * "default" for every member, so a zero-initialised struct with struct_size set (or
+ * cadinterp_open_options_init) opens exactly as cadinterp_open does.
+ *
+ * Growth by addition (the struct_size rule, as Linux's copy_struct_from_user): members are only
+ * ever appended, and a member's zero always means the behaviour without it.
+ * - struct_size smaller than the 1.0 struct (CADINTERP_OPEN_OPTIONS_SIZE_1_0 bytes, which every
+ *   caller has) is refused with CADINTERP_E_INVALID_ARGUMENT;
+ * - a caller compiled against an older header passes a smaller size than the library's struct:
+ *   the members beyond it take their zero meaning;
+ * - a caller compiled against a newer header passes a larger size: the library reads its own
+ *   members and requires every byte beyond them (up to struct_size) to be zero, that is, every
+ *   newer member to be left at its default; otherwise CADINTERP_E_INVALID_ARGUMENT, with a message
+ *   naming the offset (an option this library cannot honour is refused, never ignored).
+ * Members are laid out without padding (flags is 64-bit) on every ABI, so no uninitialised
+ * padding byte can be mistaken for a newer member; appended members must keep it so.
+ */
+typedef struct cadinterp_open_options {
+  /** sizeof(cadinterp_open_options) as the caller compiled it. */
+  size_t struct_size;
+  /** Byte budget of the cache of decoded elements, as cadinterp_set_cache_budget sets it later;
+   *  0: the default, 256 MiB. (1 keeps only the most recently used element.) */
+  size_t cache_budget_bytes;
+  /** CADINTERP_OPEN_* bits; 0: none. A bit outside CADINTERP_OPEN_KNOWN_FLAGS of the linked
+   *  library gives CADINTERP_E_INVALID_ARGUMENT, its message naming the bits. */
+  uint64_t flags;
+} cadinterp_open_options;
+
+/** Bytes of the options struct of library 1.0: the smallest struct_size accepted. */
+#define CADINTERP_OPEN_OPTIONS_SIZE_1_0 (2 * sizeof(size_t) + sizeof(uint64_t))
+
+/** Sets *options to the defaults: every member zero and struct_size = sizeof(*options).
+ *  NULL is a no-op. Thread-safe. */
+CADINTERP_API void cadinterp_open_options_init(cadinterp_open_options* options);
+
+/**
+ * cadinterp_open with options. `options` may be NULL: the defaults (exactly cadinterp_open).
+ * @param[in]  path     file name (NUL-terminated)
+ * @param[in]  options  may be NULL; read only during the call (the caller keeps ownership)
+ * @param[out] out      the asset on success; untouched on failure
+ * @return as cadinterp_open, and CADINTERP_E_INVALID_ARGUMENT for options that break the
+ *         struct_size rule or set an unknown flag bit; with CADINTERP_OPEN_VERIFY_BLOBS also
+ *         CADINTERP_E_CHECKSUM for a corrupt blob. Message: cadinterp_open_error on this thread.
+ * Thread-safe, as cadinterp_open.
+ */
+CADINTERP_API cadinterp_status cadinterp_open_with_options(const char* path,
+                                                           const cadinterp_open_options* options,
+                                                           cadinterp_asset** out);
+
+/**
+ * cadinterp_open_memory with options (see cadinterp_open_with_options for `options`).
+ * @return as cadinterp_open_memory, and the options' failures of cadinterp_open_with_options.
+ * Thread-safe, as cadinterp_open.
+ */
+CADINTERP_API cadinterp_status
+cadinterp_open_memory_with_options(const void* data, size_t size, int copy,
+                                   const cadinterp_open_options* options, cadinterp_asset** out);
 
 /** Message of this thread's most recent cadinterp_open* call: its failure's text, or "" after a
  *  success (and before any call), as SQLite's sqlite3_errmsg. Thread-local storage, valid until
@@ -438,7 +511,8 @@ CADINTERP_API cadinterp_status cadinterp_eval_properties(cadinterp_workspace* ws
 
 /* ---- Deprecated names ------------------------------------------------------------------------
  * Each calls its new name and returns what it returns (same thread-safety, ownership and
- * failures). Kept exported for one release, then removed (CHANGELOG.md). */
+ * failures). Names of library 0.1 (deprecated since 1.0): exported by every 1.x library, since
+ * removing an exported name breaks the frozen ABI 1 (CHANGELOG.md); new code uses the new names. */
 
 /** Deprecated name of cadinterp_parameter_count. */
 CADINTERP_DEPRECATED("use cadinterp_parameter_count")

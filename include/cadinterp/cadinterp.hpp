@@ -40,8 +40,32 @@ class Asset {
     if (s != CADINTERP_OK) throw Error(s, cadinterp_open_error());
     return Asset(a);
   }
+  /// Options with struct_size set (cadinterp_open_options_init), the budget and flags given.
+  static cadinterp_open_options options(size_t cache_budget_bytes = 0, uint64_t flags = 0) {
+    cadinterp_open_options o;
+    cadinterp_open_options_init(&o);
+    o.cache_budget_bytes = cache_budget_bytes;
+    o.flags = flags;
+    return o;
+  }
+  /// cadinterp_open_with_options.
+  static Asset open(const std::string& path, const cadinterp_open_options& options) {
+    cadinterp_asset* a = nullptr;
+    const cadinterp_status s = cadinterp_open_with_options(path.c_str(), &options, &a);
+    if (s != CADINTERP_OK) throw Error(s, cadinterp_open_error());
+    return Asset(a);
+  }
+  /// cadinterp_open_memory_with_options; copy=false: `data` must outlive the Asset.
+  static Asset open_memory(const void* data, size_t size, bool copy,
+                           const cadinterp_open_options& options) {
+    cadinterp_asset* a = nullptr;
+    const cadinterp_status s =
+        cadinterp_open_memory_with_options(data, size, copy ? 1 : 0, &options, &a);
+    if (s != CADINTERP_OK) throw Error(s, cadinterp_open_error());
+    return Asset(a);
+  }
   int parameter_count() const { return cadinterp_parameter_count(get()); }
-  /// Deprecated name of parameter_count(), kept for one release.
+  /// Deprecated name of parameter_count(), kept through 1.x.
   [[deprecated("use parameter_count")]] int dim() const { return parameter_count(); }
   int degree() const { return cadinterp_degree(get()); }
   int element_count() const { return cadinterp_element_count(get()); }

@@ -1,8 +1,15 @@
 /* cadinterp builder: precompute a parametric model into an asset (.cadi) by calling a host CAD
  * kernel through plain C callbacks (paper §4.2: adaptive sampling on a K-d tree).
  *
- * C99, stable ABI; the conventions of cadinterp.h apply (status codes, no exception crosses the
- * interface, outputs untouched on failure, libigl-style shapes). Link libcadinterp_builder.
+ * C99; the conventions of cadinterp.h apply (status codes, no exception crosses the interface,
+ * outputs untouched on failure, libigl-style shapes). Link libcadinterp_builder.
+ *
+ * EXPERIMENTAL ABI (CADINTERP_BUILDER_ABI_VERSION, 0): unlike the runtime's frozen ABI 1, this
+ * header may change incompatibly in any release until the builder's pull API lands; each change
+ * is listed in CHANGELOG.md and the SONAME libcadinterp_builder.so.N changes with it, so a
+ * program built against another builder ABI fails to load rather than misbehave. Integrators who
+ * ship the builder should pin the library version and rebuild on upgrade. Assets the builder
+ * writes are covered by the format's own compatibility rules (fileformat/SPEC.md), not by this.
  *
  * How a build works:
  * 1. The builder asks the host for samples at parameter vectors x. For each x it calls

@@ -26,7 +26,7 @@ typedef enum cadinterp_status {
   CADINTERP_E_OUT_OF_MEMORY = 2,
   CADINTERP_E_IO = 3,                  /**< the file cannot be opened, mapped or read */
   CADINTERP_E_BAD_MAGIC = 4,           /**< not a cadinterp asset */
-  CADINTERP_E_UNSUPPORTED_VERSION = 5, /**< another format major, or a newer minor */
+  CADINTERP_E_UNSUPPORTED_VERSION = 5, /**< other major, unknown required feature */
   CADINTERP_E_TRUNCATED = 6,           /**< the file is shorter than its header says */
   CADINTERP_E_CORRUPT_INDEX = 7,       /**< the index fails verification */
   CADINTERP_E_CHECKSUM = 8,            /**< stored bytes differ from their checksum */

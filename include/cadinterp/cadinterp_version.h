@@ -4,19 +4,26 @@
 #ifndef CADINTERP_VERSION_H
 #define CADINTERP_VERSION_H
 
-#define CADINTERP_VERSION_MAJOR 0
-#define CADINTERP_VERSION_MINOR 1
+#define CADINTERP_VERSION_MAJOR 1
+#define CADINTERP_VERSION_MINOR 0
 #define CADINTERP_VERSION_PATCH 0
 /** MAJOR * 10000 + MINOR * 100 + PATCH, for compile-time comparisons. */
 #define CADINTERP_VERSION_NUMBER \
   (CADINTERP_VERSION_MAJOR * 10000 + CADINTERP_VERSION_MINOR * 100 + CADINTERP_VERSION_PATCH)
 
-/** ABI version: N in the SONAMEs libcadinterp.so.N and libcadinterp_builder.so.N (the build
- * takes SOVERSION from here). It changes when a released declaration changes incompatibly. While
- * it is 0 (library 0.x) a release may change the ABI; CHANGELOG.md lists each change. */
-#define CADINTERP_ABI_VERSION 0
+/** Runtime ABI version: N in the SONAME libcadinterp.so.N (the build takes SOVERSION from here).
+ * ABI 1 is frozen (include/README.md, "Stability"): every 1.x release keeps each declaration of
+ * cadinterp.h, cadinterp_status.h and this header, and grows only by addition (new functions,
+ * appended status codes, options structs whose first member is their size). An incompatible
+ * change would make it 2. abi/libcadinterp.abi is the baseline a test compares each build with. */
+#define CADINTERP_ABI_VERSION 1
 
-/** Marks a declaration kept for one release under an old name (CHANGELOG.md, "Deprecated");
+/** Builder ABI version: N in the SONAME libcadinterp_builder.so.N. 0 while the builder ABI
+ * (cadinterp_builder.h) is experimental: a release may change it incompatibly, and CHANGELOG.md
+ * lists each change. */
+#define CADINTERP_BUILDER_ABI_VERSION 0
+
+/** Marks a declaration kept under an old name (CHANGELOG.md, "Deprecated");
  * compilers warn where it is used, in C99 and C++ alike. Define CADINTERP_DEPRECATED(msg) as
  * empty before including any cadinterp header to silence them. */
 #ifndef CADINTERP_DEPRECATED

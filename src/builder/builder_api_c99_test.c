@@ -8,8 +8,8 @@
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 
-#if CADINTERP_ABI_VERSION != 0
-#error "the libraries' SOVERSION is CADINTERP_ABI_VERSION: update this test with it"
+#if CADINTERP_BUILDER_ABI_VERSION != 0
+#error "the builder's SOVERSION is CADINTERP_BUILDER_ABI_VERSION: update this test with it"
 #endif
 
 static cadinterp_status never_called(void* user, const double* x, cadinterp_sample* out) {

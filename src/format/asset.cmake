@@ -13,7 +13,8 @@ add_custom_command(
   COMMENT "flatc: cadinterp.fbs")
 add_custom_target(cadinterp_fbs_header DEPENDS ${_gen}/cadinterp_generated.h)
 
-add_library(cadinterp_format STATIC asset_reader.cpp asset_writer.cpp synthetic_asset.cpp)
+add_library(cadinterp_format STATIC asset_reader.cpp asset_writer.cpp format_version.cpp
+  synthetic_asset.cpp)
 add_dependencies(cadinterp_format cadinterp_fbs_header)
 target_include_directories(cadinterp_format PUBLIC ${PROJECT_SOURCE_DIR}/src ${_gen})
 target_link_libraries(cadinterp_format

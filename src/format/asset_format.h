@@ -11,11 +11,12 @@
 //   0  u8[8]  magic 89 43 41 44 49 0D 0A 1A  ("\x89CADI\r\n\x1a": catches text-mode and 7-bit
 //             transfers like PNG's signature)
 //   8  u16    format major (readers reject any other major)
-//   10 u16    format minor (readers reject a newer minor; writers stamp the lowest minor whose
-//             schema holds what the file uses: 1.1 only with field units)
-//   12 u32    header size (exactly 48 in 1.0)
+//   10 u16    format minor (readers read newer minors too; writers stamp the lowest minor
+//             whose schema holds what the file uses: 1.1 only with field units; from 1.2 on
+//             repeated in the index)
+//   12 u32    header size (exactly 48 in every 1.x)
 //   16 u64    file size in bytes (a shorter file is truncated, a longer one corrupt)
-//   24 u64    index offset (exactly 48 in 1.0: the index follows the header)
+//   24 u64    index offset (exactly 48 in every 1.x: the index follows the header)
 //   32 u64    index size
 //   40 u64    XXH64 (seed 0) of the index bytes
 #pragma once
@@ -31,8 +32,14 @@ namespace cadinterp::format {
 
 inline constexpr std::uint8_t kMagic[8] = {0x89, 'C', 'A', 'D', 'I', '\r', '\n', 0x1A};
 inline constexpr std::uint16_t kFormatMajor = 1;
-/// The newest minor this code reads and writes; 1.1 appended FieldDesc.unit (SPEC.md).
-inline constexpr std::uint16_t kFormatMinor = 1;
+/// The newest minor this code knows (its schema: fileformat/cadinterp.fbs). Readers open newer
+/// minors too, ignoring what they do not know (format_version.h, SPEC.md "Versions and
+/// features").
+inline constexpr std::uint16_t kFormatMinor = 2;
+/// 1.1 appended FieldDesc.unit.
+inline constexpr std::uint16_t kMinorFieldUnits = 1;
+/// 1.2 appended Asset.format_minor and Asset.required_features.
+inline constexpr std::uint16_t kMinorFeatures = 2;
 inline constexpr std::size_t kHeaderSize = 48;
 
 /// Outcome of reading or writing an asset. The values equal the C ABI's cadinterp_status values
@@ -44,7 +51,7 @@ enum class Status : int {
   OutOfMemory = 2,
   Io = 3,                  ///< cannot open, map or read the file
   BadMagic = 4,            ///< not a cadinterp asset
-  UnsupportedVersion = 5,  ///< another format major, or a newer minor
+  UnsupportedVersion = 5,  ///< another format major, or an unknown required feature
   Truncated = 6,           ///< the file is shorter than its header says
   CorruptIndex = 7,        ///< the index fails verification (structure, sizes, ranges, values)
   ChecksumMismatch = 8,    ///< index or blob bytes differ from their XXH64

@@ -12,11 +12,13 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <set>
 #include <thread>
 #include <tuple>
 
 #include "cadinterp_generated.h"
 #include "format/codec.h"
+#include "format/format_version.h"
 
 namespace cadinterp::format {
 
@@ -176,19 +178,15 @@ struct Header {
 };
 
 // Checks the header of the `size` bytes at `data`: magic, version, then every field, since
-// format 1.x has exactly one header layout and the index right after it (a newer minor, which
-// could grow the header, is rejected). Sets *minor from the version field.
+// every format 1.x has exactly one header layout and the index right after it (growing the
+// header needs a new major). Sets *minor from the version field.
 Header check_header(const std::uint8_t* data, std::uint64_t size, std::uint16_t* minor) {
   if (size < sizeof kMagic || std::memcmp(data, kMagic, sizeof kMagic) != 0)
     throw FormatError(Status::BadMagic, "not a cadinterp asset (bad magic)");
   if (size < kHeaderSize) throw FormatError(Status::Truncated, "file shorter than its header");
   const auto major = static_cast<std::uint16_t>(get_le(data + 8, 2));
   *minor = static_cast<std::uint16_t>(get_le(data + 10, 2));
-  if (major != kFormatMajor || *minor > kFormatMinor)
-    throw FormatError(Status::UnsupportedVersion,
-                      "format " + std::to_string(major) + "." + std::to_string(*minor) +
-                          " (this reader: " + std::to_string(kFormatMajor) + "." +
-                          std::to_string(kFormatMinor) + ")");
+  check_format_version(major, *minor);
   const std::uint64_t header_size = get_le(data + 12, 4);
   Header h;
   h.file_size = get_le(data + 16, 8);
@@ -277,9 +275,9 @@ void check_text(const flatbuffers::String* str, const char* what) {
     corrupt(std::string(what) + " contains a NUL character");
 }
 
-// Checks the descriptive tables of a K-parameter asset: their strings, the infeasible points'
-// coordinates, and that the format minor is the one the content needs.
-void check_descriptions(const fb::Asset& index, int K, std::uint16_t minor) {
+// Checks the descriptive tables of a K-parameter asset: their strings and the infeasible points'
+// coordinates.
+void check_descriptions(const fb::Asset& index, int K) {
   for (const fb::Parameter* prm : *index.parameters()) {
     check_text(prm->name(), "parameter name");
     check_text(prm->unit(), "parameter unit");
@@ -289,19 +287,6 @@ void check_descriptions(const fb::Asset& index, int K, std::uint16_t minor) {
       check_text(f->name(), "field name");
       check_text(f->unit(), "field unit");  // format 1.1
     }
-  // The minor is the lowest one whose schema holds the content (SPEC.md, "Compatibility
-  // rules"): 1 exactly when a field has a unit. Checked both ways, so that the minor's bits are
-  // covered like every other byte (a flipped minor is reported, not read as another version).
-  {
-    bool any_unit = false;
-    if (const auto* fields = index.fields())
-      for (const fb::FieldDesc* f : *fields)
-        any_unit = any_unit || (f->unit() && f->unit()->size());
-    if (minor != (any_unit ? 1 : 0))
-      corrupt("format minor " + std::to_string(minor) +
-              " does not match the content (field units " +
-              (any_unit ? "present: 1.1" : "absent: 1.0") + ")");
-  }
   if (const auto* regions = index.regions())
     for (const fb::BoundaryRegion* r : *regions) {
       check_text(r->name(), "region name");
@@ -410,17 +395,20 @@ void check_element(const fb::ElementMeshes* m, int e, const core::CompiledBasis&
 
 // The blobs tile the blob section of `section` bytes exactly: no byte of the file escapes every
 // checksum. Identical references name one shared blob (SPEC.md, "Layout"); any other overlap
-// is corruption. Sorting puts identical references side by side.
-void check_tiling(std::vector<Extent>& extents, std::uint64_t section) {
+// is corruption. Sorting puts identical references side by side. With `gaps` (a file of a newer
+// minor, whose unknown fields may reference blobs of their own) bytes no known reference covers
+// are skipped; overlaps are still corruption.
+void check_tiling(std::vector<Extent>& extents, std::uint64_t section, bool gaps) {
   std::sort(extents.begin(), extents.end());
   std::uint64_t end = 0;
   for (std::size_t i = 0; i < extents.size(); ++i) {
     const Extent& x = extents[i];
     if (i > 0 && x == extents[i - 1]) continue;
-    if (x.offset != end) corrupt("blob section has a gap or an overlap");
+    if (x.offset < end || (x.offset > end && !gaps))
+      corrupt("blob section has a gap or an overlap");
     end = x.offset + x.size;
   }
-  if (end != section) corrupt("blob section has unreferenced bytes");
+  if (end > section || (end < section && !gaps)) corrupt("blob section has unreferenced bytes");
 }
 
 }  // namespace
@@ -482,8 +470,10 @@ void AssetReader::open(const ReadLimits& limits) {
   limits_ = limits;
   const Header h = check_header(data_, size_, &minor_);
   index_ = verify_index(data_, h, index_copy_);
+  // Before anything else of the index: a required feature may change what the rest means.
+  check_index_version(*index_, minor_);
   basis_ = read_basis(*index_);
-  check_descriptions(*index_, basis_.dim(), minor_);
+  check_descriptions(*index_, basis_.dim());
   count_field_values(*index_, per_vertex_, per_tet_);
 
   const auto* elems = index_->elements();
@@ -494,7 +484,7 @@ void AssetReader::open(const ReadLimits& limits) {
   for (int e = 0; e < basis_.element_count(); ++e)
     check_element(elems->Get(static_cast<flatbuffers::uoffset_t>(e)), e, basis_, limits_,
                   per_vertex_, per_tet_, section, extents);
-  check_tiling(extents, section);
+  check_tiling(extents, section, newer_minor(minor_));
 }
 
 AssetReader::Bytes AssetReader::blob(const void* ref) const {
@@ -513,6 +503,21 @@ AssetReader::Bytes AssetReader::blob(const void* ref) const {
   // Decoded in place: no copy. Should a mapped file change after the check, the decoders still
   // never leave the blob's bounds (codec.h), so the worst case is wrong values, never a crash.
   return {p, n};
+}
+
+void AssetReader::verify_blobs() const {
+  std::set<std::uint64_t> seen;  // blob offsets: identical references share one blob (SPEC.md)
+  const auto verify = [&](const fb::BlobRef* r) {
+    if (r && r->size() > 0 && seen.insert(r->offset()).second) blob(r);
+  };
+  for (const fb::ElementMeshes* m : *index_->elements()) {
+    for (const fb::BlobRef* r :
+         {m->tets(), m->triangles(), m->triangle_tags(), m->canonical_positions()})
+      verify(r);
+    for (const auto* list : {m->positions(), m->fields()})
+      if (list)
+        for (const fb::BlobRef* r : *list) verify(r);
+  }
 }
 
 AssetReader::TopologyKey AssetReader::topology_key(int e) const {

@@ -130,6 +130,11 @@ class AssetReader {
   /// @param[in,out] spare  as for decode_element
   std::vector<DecodedArray<float>> decode_fields(int e, SpareArrays* spare = nullptr) const;
 
+  /// Verifies the XXH64 of every blob, each shared blob once (cadinterp_open_options'
+  /// CADINTERP_OPEN_VERIFY_BLOBS): reads the whole blob section. Throws
+  /// FormatError(ChecksumMismatch) naming the first bad blob.
+  void verify_blobs() const;
+
  private:
   AssetReader() = default;
   void open(const ReadLimits& limits);

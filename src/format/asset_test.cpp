@@ -213,7 +213,8 @@ TEST(Asset, EachInvalidFileHasItsNamedStatus) {
       {"empty", Status::BadMagic, [](auto& b, auto) { b.clear(); }},
       {"bad magic", Status::BadMagic, [](auto& b, auto) { b[1] = 'X'; }},
       {"newer major", Status::UnsupportedVersion, [](auto& b, auto) { set_le(b, 8, 2, 2); }},
-      {"newer minor", Status::UnsupportedVersion,
+      // A newer minor is read, but must repeat its minor in the index (format_minor).
+      {"newer minor, not in the index", Status::CorruptIndex,
        [](auto& b, auto) { set_le(b, 10, kFormatMinor + 1u, 2); }},
       {"header only", Status::Truncated, [](auto& b, auto) { b.resize(20); }},
       {"truncated", Status::Truncated, [](auto& b, auto) { b.pop_back(); }},
@@ -563,7 +564,9 @@ namespace cadinterp::format {
 namespace {
 
 // 10,000 random single-bit flips of each valid conformance asset: every one is reported, by
-// open (header, index) or by decoding the element that owns the flipped blob byte.
+// open (header, index) or by decoding the element that owns the flipped blob byte. The one
+// exception is by design: in an asset of a newer minor, a blob only unknown fields reference
+// (k1_newer_minor's preview) is skipped by this reader (SPEC.md, "Versions and features").
 TEST(Asset, EveryBitFlipOfEveryConformanceAssetIsReported) {
   int assets = 0;
   for (const auto& entry :
@@ -595,6 +598,10 @@ TEST(Asset, EveryBitFlipOfEveryConformanceAssetIsReported) {
       if (m->fields())
         for (const fb::BlobRef* r : *m->fields()) mark(r);
     }
+    const bool newer = reader->format_minor() > kFormatMinor;
+    if (!newer) {
+      ASSERT_EQ(std::count(owner.begin(), owner.end(), -1), 0) << entry.path() << ": gaps";
+    }
     std::mt19937_64 rng(7 + static_cast<unsigned>(assets));
     std::vector<std::uint8_t> b = good;
     for (int i = 0; i < 10000; ++i) {
@@ -605,6 +612,10 @@ TEST(Asset, EveryBitFlipOfEveryConformanceAssetIsReported) {
         const auto r = AssetReader::open_memory(b.data(), b.size(), false);
         const std::size_t byte = bit / 8;
         ASSERT_GE(byte, section) << "a header or index flip passed open";
+        if (newer && owner[byte - section] < 0) {  // a blob this reader does not know
+          b[byte] = good[byte];
+          continue;
+        }
         r->decode_element(owner[byte - section]);
         r->decode_fields(owner[byte - section]);
       } catch (const FormatError& err) {

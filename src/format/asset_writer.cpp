@@ -222,9 +222,11 @@ std::vector<std::uint8_t> assemble_file(const flatbuffers::FlatBufferBuilder& fb
     std::memcpy(file.data() + kHeaderSize + fbb.GetSize(), section.data(), section.size());
   std::memcpy(file.data(), kMagic, sizeof kMagic);
   put_le(file, 8, kFormatMajor, 2);
-  // The lowest minor whose schema holds what this file uses (SPEC.md, "Compatibility rules"):
-  // 1.0 readers keep opening assets without field units.
-  put_le(file, 10, any_unit ? kFormatMinor : 0, 2);
+  // The lowest minor whose schema holds what this file uses (SPEC.md, "Versions and features"):
+  // 1.0 readers keep opening assets without field units. This writer uses nothing of 1.2: no
+  // feature a reader must implement exists beyond 1.0 (the list is empty), so it never writes
+  // format_minor or required_features.
+  put_le(file, 10, any_unit ? kMinorFieldUnits : 0, 2);
   put_le(file, 12, kHeaderSize, 4);
   put_le(file, 16, file.size(), 8);
   put_le(file, 24, index_offset, 8);

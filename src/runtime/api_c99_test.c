@@ -21,10 +21,10 @@ int main(void) {
   const char* unit = "untouched";
   int major = -1, minor = -1, s;
 
-  CHECK(strcmp(cadinterp_version(), "0.1.0") == 0);
+  CHECK(strcmp(cadinterp_version(), "1.0.0") == 0);
   CHECK(cadinterp_version_number() == CADINTERP_VERSION_NUMBER);
   cadinterp_format_version(&major, &minor);
-  CHECK(major == 1 && minor == 1); /* 1.1: field units */
+  CHECK(major == 1 && minor == 2); /* 1.2: required features */
   for (s = CADINTERP_OK; s <= CADINTERP_E_NOT_FOUND; ++s)
     CHECK(cadinterp_status_string((cadinterp_status)s) != NULL);
   CHECK(strcmp(cadinterp_status_string((cadinterp_status)999), "unknown status") == 0);

@@ -5,6 +5,8 @@
 // (capi/capi_guard.h), which map exceptions to status codes: nothing crosses the ABI.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <new>
@@ -26,20 +28,62 @@ using cadinterp::runtime::fail;
 using cadinterp::runtime::FieldSlot;
 using cadinterp::runtime::RegionSlot;
 
+#define CADINTERP_STR2(x) #x
+#define CADINTERP_STR(x) CADINTERP_STR2(x)
+#define CADINTERP_VERSION_TEXT           \
+  CADINTERP_STR(CADINTERP_VERSION_MAJOR) \
+  "." CADINTERP_STR(CADINTERP_VERSION_MINOR) "." CADINTERP_STR(CADINTERP_VERSION_PATCH)
+
 namespace {
 
 thread_local std::string t_open_error;
 
+// Copies the caller's options into *o by the struct_size rule of cadinterp.h: members beyond
+// struct_size keep their zero default; bytes beyond this library's struct must be zero (a newer
+// caller's members left at their defaults). Sets t_open_error on failure.
+cadinterp_status read_open_options(const cadinterp_open_options* in, cadinterp_open_options* o) {
+  *o = cadinterp_open_options{};
+  if (!in) return CADINTERP_OK;
+  const std::size_t n = in->struct_size;
+  if (n < CADINTERP_OPEN_OPTIONS_SIZE_1_0) {
+    t_open_error = "options struct_size " + std::to_string(n) + " is below the 1.0 struct's " +
+                   std::to_string(CADINTERP_OPEN_OPTIONS_SIZE_1_0) + " bytes";
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
+  std::memcpy(o, in, std::min(n, sizeof(*o)));
+  const auto* bytes = reinterpret_cast<const unsigned char*>(in);
+  for (std::size_t i = sizeof(*o); i < n; ++i)
+    if (bytes[i] != 0) {
+      t_open_error = "options byte " + std::to_string(i) +
+                     " is set: a member this library (" CADINTERP_VERSION_TEXT
+                     ") does not know, so it cannot honour it";
+      return CADINTERP_E_INVALID_ARGUMENT;
+    }
+  if (const std::uint64_t unknown = o->flags & ~std::uint64_t(CADINTERP_OPEN_KNOWN_FLAGS)) {
+    char hex[19];
+    std::snprintf(hex, sizeof hex, "0x%llx", static_cast<unsigned long long>(unknown));
+    t_open_error = std::string("unknown option flag bits ") + hex;
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
+  return CADINTERP_OK;
+}
+
 cadinterp_status open_with(
     const std::function<std::unique_ptr<cadinterp::format::AssetReader>()>& make,
-    cadinterp_asset** out) {
+    const cadinterp_open_options* options, cadinterp_asset** out) {
   t_open_error.clear();
   if (!out) {
     t_open_error = "out is NULL";
     return CADINTERP_E_INVALID_ARGUMENT;
   }
+  // Inside the guard: reading the options builds messages, which allocate.
   CADINTERP_CATCH_BEGIN
-  *out = cadinterp::runtime::make_asset(make()).release();
+  cadinterp_open_options o;
+  if (const cadinterp_status s = read_open_options(options, &o)) return s;
+  auto asset = cadinterp::runtime::make_asset(make());
+  if (o.cache_budget_bytes != 0) asset->cache.set_budget(o.cache_budget_bytes);
+  if (o.flags & CADINTERP_OPEN_VERIFY_BLOBS) asset->reader->verify_blobs();
+  *out = asset.release();
   return CADINTERP_OK;
   CADINTERP_CATCH_END(&t_open_error)
 }
@@ -48,12 +92,7 @@ cadinterp_status open_with(
 
 extern "C" {
 
-const char* cadinterp_version(void) {
-#define CADINTERP_STR2(x) #x
-#define CADINTERP_STR(x) CADINTERP_STR2(x)
-  return CADINTERP_STR(CADINTERP_VERSION_MAJOR) "." CADINTERP_STR(
-      CADINTERP_VERSION_MINOR) "." CADINTERP_STR(CADINTERP_VERSION_PATCH);
-}
+const char* cadinterp_version(void) { return CADINTERP_VERSION_TEXT; }
 
 unsigned cadinterp_version_number(void) { return CADINTERP_VERSION_NUMBER; }
 
@@ -70,22 +109,42 @@ const char* cadinterp_status_string(cadinterp_status status) {
   return cadinterp::format::status_name(static_cast<cadinterp::format::Status>(status));
 }
 
-cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out) {
+void cadinterp_open_options_init(cadinterp_open_options* options) {
+  if (options) {
+    *options = cadinterp_open_options{};
+    options->struct_size = sizeof(*options);
+  }
+}
+
+cadinterp_status cadinterp_open_with_options(const char* path,
+                                             const cadinterp_open_options* options,
+                                             cadinterp_asset** out) {
   if (!path) {
     t_open_error = "path is NULL";
     return CADINTERP_E_INVALID_ARGUMENT;
   }
-  return open_with([&] { return cadinterp::format::AssetReader::open_file(path); }, out);
+  return open_with([&] { return cadinterp::format::AssetReader::open_file(path); }, options, out);
 }
 
-cadinterp_status cadinterp_open_memory(const void* data, size_t size, int copy,
-                                       cadinterp_asset** out) {
+cadinterp_status cadinterp_open(const char* path, cadinterp_asset** out) {
+  return cadinterp_open_with_options(path, nullptr, out);
+}
+
+cadinterp_status cadinterp_open_memory_with_options(const void* data, size_t size, int copy,
+                                                    const cadinterp_open_options* options,
+                                                    cadinterp_asset** out) {
   if (!data) {
     t_open_error = "data is NULL";
     return CADINTERP_E_INVALID_ARGUMENT;
   }
   return open_with(
-      [&] { return cadinterp::format::AssetReader::open_memory(data, size, copy != 0); }, out);
+      [&] { return cadinterp::format::AssetReader::open_memory(data, size, copy != 0); }, options,
+      out);
+}
+
+cadinterp_status cadinterp_open_memory(const void* data, size_t size, int copy,
+                                       cadinterp_asset** out) {
+  return cadinterp_open_memory_with_options(data, size, copy, nullptr, out);
 }
 
 const char* cadinterp_open_error(void) { return t_open_error.c_str(); }

@@ -26,6 +26,8 @@ if(CADINTERP_BUILD_TESTS)
 
   cadinterp_add_test(runtime_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_test.cpp
     LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
+  cadinterp_add_test(runtime_open_options_tests ${CMAKE_CURRENT_LIST_DIR}/open_options_test.cpp
+    LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_names_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_names_test.cpp
     LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_alloc_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_alloc_test.cpp
@@ -37,9 +39,10 @@ if(CADINTERP_BUILD_TESTS)
 endif()
 
 if(CADINTERP_BUILD_TESTS)
-  # The shared library exports the C ABI and nothing else.
+  # The shared library exports the C ABI and nothing else, under the SONAME of
+  # CADINTERP_ABI_VERSION.
   add_test(NAME runtime_exports
-           COMMAND bash -c "bad=$(nm -D --defined-only $<TARGET_FILE:cadinterp> | awk '{print $3}' | grep -v -e '^cadinterp_' -e '^CADINTERP_0$'); if [ -n \"$bad\" ]; then echo \"unexpected exports: $bad\"; exit 1; fi; echo \"exports: $(nm -D --defined-only $<TARGET_FILE:cadinterp> | grep -c ' cadinterp_') cadinterp_* symbols\"")
+           COMMAND bash -c "bad=$(nm -D --defined-only $<TARGET_FILE:cadinterp> | awk '{print $3}' | grep -v -e '^cadinterp_' -e '^CADINTERP_1$'); if [ -n \"$bad\" ]; then echo \"unexpected exports: $bad\"; exit 1; fi; readelf -d $<TARGET_FILE:cadinterp> | grep -q 'SONAME.*\\[libcadinterp[.]so[.]${CADINTERP_ABI_VERSION}\\]' || { echo 'SONAME is not libcadinterp.so.${CADINTERP_ABI_VERSION}'; exit 1; }; echo \"exports: $(nm -D --defined-only $<TARGET_FILE:cadinterp> | grep -c ' cadinterp_') cadinterp_* symbols\"")
   set_tests_properties(runtime_exports PROPERTIES LABELS unit)
 endif()
 

@@ -82,7 +82,9 @@ contains u_number err "(see 'cadinterp eval --help')"
 # ---- runtime errors: exit 1, the status named ---------------------------------------------------
 run 1 r_missing -- inspect "$WORK/none.cadi" && contains r_missing err "CADINTERP_E_IO"
 run 1 r_magic -- inspect "$CASES/invalid/bad_magic/asset.cadi" && contains r_magic err "CADINTERP_E_BAD_MAGIC"
-run 1 r_version -- eval "$CASES/invalid/newer_minor/asset.cadi" 0.5 && contains r_version err "CADINTERP_E_UNSUPPORTED_VERSION"
+run 1 r_version -- eval "$CASES/invalid/unknown_required_feature/asset.cadi" 0.5 &&
+  contains r_version err "CADINTERP_E_UNSUPPORTED_VERSION" &&
+  contains r_version err "conformance_unknown_feature"
 run 1 r_outside -- eval "$A2" 0.5 1.5 && contains r_outside err "CADINTERP_E_OUTSIDE_DOMAIN" &&
   contains r_outside err "twist = 1.5 is outside [0, 1]"
 run 1 r_negative -- eval "$A2" -0.5 0.5 && contains r_negative err "bend = -0.5 is outside"

@@ -21,14 +21,16 @@
 #include "cadinterp_generated.h"
 #include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
+#include "tools/conformance_future.h"
 
 namespace fs = std::filesystem;
 using namespace cadinterp;
 
 namespace {
 
-// The first minor this runtime does not read.
-const std::string kNewerMinor = "format 1." + std::to_string(cadinterp::format::kFormatMinor + 1);
+// The first minor newer than this runtime's, and a feature no reader implements.
+const std::string kNewerMinor = "1." + std::to_string(cadinterp::format::kFormatMinor + 1);
+const std::string kUnknownFeature = "conformance_unknown_feature";
 
 std::string hex(double v) {
   char buf[64];
@@ -44,7 +46,7 @@ void write_bytes(const fs::path& p, const std::vector<std::uint8_t>& b) {
 
 struct Valid {
   const char* name;
-  const char* description;
+  std::string description;
   format::SyntheticSpec spec;
   format::Codec codec;
 };
@@ -161,13 +163,17 @@ std::vector<Valid> valid_cases() {
 // Writes valid/NAME (asset.cadi, expected.txt) and its INDEX.txt line; returns the asset.
 // Expected: field units, four seeded random points, the centre (on element faces), a point in
 // the infeasible corner where there is one, and a point outside the domain.
-std::vector<std::uint8_t> write_valid_case(const fs::path& root, const Valid& v,
-                                           std::ofstream& index) {
+// `rewrite`, if given, turns the written asset into the case's bytes.
+std::vector<std::uint8_t> write_valid_case(
+    const fs::path& root, const Valid& v, std::ofstream& index,
+    const std::function<std::vector<std::uint8_t>(const std::vector<std::uint8_t>&)>& rewrite =
+        nullptr) {
   const format::SyntheticAsset a = format::make_synthetic_asset(v.spec);
   format::WriteOptions o;
   o.float_codec = v.codec;
   o.index_codec = v.codec;
-  const std::vector<std::uint8_t> bytes = format::write_asset(a.content, o);
+  std::vector<std::uint8_t> bytes = format::write_asset(a.content, o);
+  if (rewrite) bytes = rewrite(bytes);
   const fs::path dir = root / "valid" / v.name;
   fs::create_directories(dir);
   write_bytes(dir / "asset.cadi", bytes);
@@ -200,7 +206,7 @@ struct Invalid {
   const char* name;
   const char* when;  // "open" or "eval"
   const char* status;
-  const char* description;
+  std::string description;
   std::function<void(std::vector<std::uint8_t>&)> mutate;
 };
 
@@ -212,7 +218,8 @@ std::vector<Invalid> header_cases() {
        [](auto& b) { b[0] = 'C'; }},
       {"newer_major", "open", "CADINTERP_E_UNSUPPORTED_VERSION", "format 2.0",
        [](auto& b) { set_le(b, 8, 2, 2); }},
-      {"newer_minor", "open", "CADINTERP_E_UNSUPPORTED_VERSION", kNewerMinor.c_str(),
+      {"newer_minor_not_in_index", "open", "CADINTERP_E_CORRUPT_INDEX",
+       "header says format " + kNewerMinor + ", the index does not repeat it",
        [](auto& b) { set_le(b, 10, format::kFormatMinor + 1u, 2); }},
       {"truncated_header", "open", "CADINTERP_E_TRUNCATED", "first 20 bytes",
        [](auto& b) { b.resize(20); }},
@@ -334,6 +341,37 @@ void write_invalid_case(const fs::path& root, const Invalid& c,
         << "\n";
 }
 
+// Forward compatibility (SPEC.md, "Versions and features"), with assets of the next minor
+// written through the test-only future schema: k1_linear with a table and a blob this runtime
+// does not know must evaluate exactly as k1_linear; the same with a required feature no reader
+// implements must be refused, naming the feature; with its minor set to 0 it is corrupt.
+// Returns the number of cases written.
+int write_forward_compat_cases(const fs::path& root, const std::vector<std::uint8_t>& base,
+                               std::ofstream& index) {
+  const Valid newer{
+      "k1_newer_minor",
+      "K=1 linear as format " + kNewerMinor + ": unknown table and blob, no required feature",
+      make_spec(1, core::Degree::Linear, 9, true, false), format::Codec::Raw};
+  write_valid_case(root, newer, index, [](const auto& b) { return tools::as_future_minor(b, {}); });
+  const Invalid feature{"unknown_required_feature", "open", "CADINTERP_E_UNSUPPORTED_VERSION",
+                        "format " + kNewerMinor + " requiring feature " + kUnknownFeature,
+                        [](auto& b) { b = tools::as_future_minor(b, {kUnknownFeature}); }};
+  write_invalid_case(root, feature, base, index);
+  std::ofstream(root / "invalid" / feature.name / "expected.txt", std::ios::app)
+      << "open_message " << kUnknownFeature << "\n";
+  // The version fields are 1.2 content: a file claiming minor 0 must not hold them (this also
+  // makes a flip of the header's minor down to 0 or 1 visible).
+  write_invalid_case(root,
+                     {"version_fields_in_minor_0", "open", "CADINTERP_E_CORRUPT_INDEX",
+                      "the asset of k1_newer_minor with the header's minor set to 0",
+                      [](auto& b) {
+                        b = tools::as_future_minor(b, {});
+                        set_le(b, 10, 0, 2);
+                      }},
+                     base, index);
+  return 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -364,8 +402,9 @@ int main(int argc, char** argv) {
         write_invalid_case(root, c, base, index);
         ++invalid;
       }
-    std::printf("wrote %zu valid and %zu invalid cases to %s\n", valid.size(), invalid,
-                root.string().c_str());
+    const int forward = write_forward_compat_cases(root, base, index);
+    std::printf("wrote %zu valid, %zu invalid and %d forward-compatibility cases to %s\n",
+                valid.size(), invalid, forward, root.string().c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

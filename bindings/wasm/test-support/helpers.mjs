@@ -60,6 +60,7 @@ export function parseExpected(group, name) {
     const nums = () => tok.slice(1).map(parseNumber);
     switch (tok[0]) {
       case 'open': out.open = tok[1]; break;
+      case 'open_message': out.openMessage = tok.slice(1).join(' '); break;
       case 'tolerance': out.tolerance = Number(tok[1]); break;
       case 'grad_tolerance': out.gradTolerance = Number(tok[1]); break;
       case 'unit': out.units[Number(tok[1])] = tok[2] === '-' ? '' : tok[2]; break;

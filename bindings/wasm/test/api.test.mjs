@@ -22,7 +22,7 @@ function throwsStatus(fn, statusName) {
 const inner = (asset, t) => asset.parameters.map((p, d) => p.lower + t[d % t.length] * (p.upper - p.lower));
 
 test('version and metadata', () => {
-  assert.equal(lib.version, '0.1.0');
+  assert.equal(lib.version, '1.0.0');
   const a = lib.open(caseBytes('valid', 'k2_cubic'));
   try {
     assert.equal(a.dim, 2);
@@ -35,7 +35,7 @@ test('version and metadata', () => {
     assert.deepEqual(a.fields.map((f) => f.unit), ['', '']); // format 1.0: no units
     assert.ok(a.regions.length > 0);
     for (const r of a.regions) assert.ok(r.faceTags instanceof Int32Array && r.name && r.kind);
-    assert.equal(a.provenance.builderVersion, '0.1.0');
+    assert.equal(a.provenance.builderVersion, '1.0.0');
     assert.equal(JSON.parse(a.provenance.options).K, 2); // options are JSON
     assert.deepEqual(a.infeasiblePoints, []);
   } finally {

@@ -124,7 +124,7 @@ test('loads and evaluates in headless Chromium, on the page and in a worker',
     }
     const r = results.page;
     assert.equal(r.error, undefined, r.error);
-    assert.equal(r.version, '0.1.0');
+    assert.equal(r.version, '1.0.0');
     assert.equal(r.element, p.element);
     assertClose(r.positions, p.positions, exp.tolerance, 'positions');
     assertClose(r.temperature, p.field0, exp.tolerance, 'temperature');

@@ -19,6 +19,7 @@ function runCase(group, name) {
     assert.equal(e.statusName, exp.open, `open: ${e.message}`);
     assert.equal(api.STATUS_NAMES[e.status], e.statusName);
     assert.ok(e.message.length > 0 && e.message !== e.statusName, 'the C ABI message comes along');
+    if (exp.openMessage) assert.ok(e.message.includes(exp.openMessage), `open message: ${e.message}`);
     return { opened: false, points: 0 };
   }
   try {
