@@ -26,6 +26,8 @@ if(CADINTERP_BUILD_TESTS)
 
   cadinterp_add_test(runtime_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_test.cpp
     LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
+  cadinterp_add_test(runtime_integral_tests ${CMAKE_CURRENT_LIST_DIR}/integral_test.cpp
+    LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_names_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_names_test.cpp
     LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_alloc_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_alloc_test.cpp
