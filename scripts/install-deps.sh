@@ -36,6 +36,8 @@ PACKAGES=(
   emscripten                        # the WebAssembly runtime (bindings/wasm); its codec sources
                                     # come from Debian source packages (fetch-wasm-sources.sh)
   chromium                          # the explorer's end-to-end tests (headless)
+  # Shape optimization (src/optimize, `cadinterp optimize`): Ipopt, found through pkg-config.
+  coinor-libipopt-dev
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and

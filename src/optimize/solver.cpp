@@ -157,6 +157,10 @@ class Nlp : public Ipopt::TNLP {
     path.insert(path.end(), path_x_.begin(), path_x_.end());
     path_objective.push_back(path_f_);
     path_violation.push_back(path_v_);
+    if (stalling()) {
+      stalled = true;
+      return false;
+    }
     if (o_.progress &&
         o_.progress(o_.progress_user, start_index_, iter, path_x_.data(), path_f_, inf_pr, inf_du))
       return false;
@@ -171,6 +175,7 @@ class Nlp : public Ipopt::TNLP {
   }
 
   std::vector<double> path, path_objective, path_violation, final_x;
+  bool stalled = false;  // stopped here: no progress in kStallIterations iterations
   int evaluations = 0;
   int iterations() const { return iterations_; }
   double optimality() const { return optimality_; }
@@ -199,6 +204,27 @@ class Nlp : public Ipopt::TNLP {
     return ok_;
   }
 
+  // Whether the best iterate has not improved for kStallIterations accepted iterates. At a kink
+  // of a C0 interpolant (linear assets) or at the float noise floor of the values (~1e-7
+  // relative), Ipopt's KKT error stays above tol and it would spend the rest of max_iterations
+  // in failing line searches; the best point is then already found.
+  static constexpr int kStallIterations = 20;
+  bool stalling() {
+    const double f = path_objective.back(), v = path_violation.back();
+    const bool first = path_objective.size() == 1;
+    const bool improved =
+        first || (v <= 1e-6 ? best_v_ > 1e-6 || f < best_f_ - 1e-9 * (1.0 + std::fabs(best_f_))
+                            : v < best_v_ - 1e-9);
+    if (first || better(f, v, best_f_, best_v_)) {
+      best_f_ = f;
+      best_v_ = v;
+    }
+    since_improved_ = improved ? 0 : since_improved_ + 1;
+    return since_improved_ >= kStallIterations;
+  }
+
+  double best_f_ = HUGE_VAL, best_v_ = HUGE_VAL;
+  int since_improved_ = 0;
   Problem& p_;
   const cadinterp_optimize_options& o_;
   int start_index_;
@@ -256,7 +282,9 @@ bool run_start(Problem& p, const cadinterp_optimize_options& o, int index,
   }
   const Ipopt::ApplicationReturnStatus s = app->OptimizeTNLP(Ipopt::GetRawPtr(nlp));
   out->ipopt_status = static_cast<int>(s);
-  out->status = status_words(s);
+  out->status = nlp->stalled ? "stalled: no decrease in 20 iterations (a kink of a linear "
+                               "asset's C0 interpolant, or the float noise floor)"
+                             : status_words(s);
   out->converged = s == Ipopt::Solve_Succeeded || s == Ipopt::Solved_To_Acceptable_Level;
   out->iterations = nlp->iterations();
   out->evaluations = nlp->evaluations;
