@@ -137,6 +137,16 @@ bool finite_properties(const cadinterp_properties& p) {
          std::isfinite(p.frontal_area);
 }
 
+// Copies the K derivatives to dst when all are finite (clearing the message), else refuses the
+// overflow with dst untouched.
+cadinterp_status store_derivatives(cadinterp_workspace* ws, const double* out, int K, double* dst) {
+  for (int k = 0; k < K; ++k)
+    if (!std::isfinite(out[k])) return overflow(ws);
+  std::memcpy(dst, out, sizeof(double) * static_cast<std::size_t>(K));
+  ws->error.clear();
+  return CADINTERP_OK;
+}
+
 // out = sum_t weight_t * arrays_t (Eq. 3): the multi-output kernel with one output.
 void blend(cadinterp_workspace* ws, const double* weight, std::size_t offset, std::size_t n,
            bool positions, float* out) {
@@ -393,11 +403,7 @@ cadinterp_status evaluate_vjp(cadinterp_workspace* ws, const double* x, const fl
     }
     for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dot_t;
   }
-  for (int k = 0; k < K; ++k)
-    if (!std::isfinite(out[k])) return overflow(ws);
-  std::memcpy(dF_dx, out, sizeof(double) * static_cast<std::size_t>(K));
-  ws->error.clear();
-  return CADINTERP_OK;
+  return store_derivatives(ws, out, K, dF_dx);
 }
 
 cadinterp_status evaluate_properties(cadinterp_workspace* ws, const double* x, double density,
@@ -669,9 +675,8 @@ cadinterp_status evaluate_integral(cadinterp_workspace* ws, const double* x, int
       }
       for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dt;
     }
-    for (int k = 0; k < K; ++k)
-      if (!std::isfinite(out[k])) return overflow(ws);
-    std::memcpy(grad, out, sizeof(double) * static_cast<std::size_t>(K));
+    const cadinterp_status g = store_derivatives(ws, out, K, grad);
+    if (g != CADINTERP_OK) return g;
   }
   *value = total;
   ws->error.clear();
