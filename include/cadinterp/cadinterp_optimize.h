@@ -233,6 +233,9 @@ typedef struct cadinterp_optimize_result {
    *  and between elements, and Ipopt may stop short of its tolerance there */
   int linear_asset;
   const char* note; /**< a sentence on the above for a linear asset, else "" */
+  /** Of `evaluations`, the points the runtime refused (infeasible elements, or a value that is
+   *  not finite): how often the iterates ran into a wall, summed over starts */
+  int refused_evaluations;
 } cadinterp_optimize_result;
 
 /**

@@ -241,6 +241,7 @@ cadinterp_status cadinterp_optimize_solve(cadinterp_optimize_problem* p,
     v.error_estimate = r.error_estimate;
     v.linear_asset = r.linear;
     v.note = r.note.c_str();
+    v.refused_evaluations = r.refused;
     std::memcpy(result, &v, sizeof v);
     p->error.clear();
     return CADINTERP_OK;

@@ -174,6 +174,7 @@ TEST_P(Minimizer, FindsTheKnownMinimizer) {
   EXPECT_GT(r.path_length, 1);
   EXPECT_GT(r.evaluations, r.iterations);
   EXPECT_LE(r.constraint_violation, 0.0);
+  EXPECT_EQ(r.refused_evaluations, 0) << "no wall in this asset";
 }
 
 INSTANTIATE_TEST_SUITE_P(KAndDegree, Minimizer,
@@ -252,6 +253,9 @@ TEST(Optimize, InfeasibleCornerIsAWall) {
   }
   EXPECT_LT(r.objective, r.path_objective[0] - 0.2) << "it moved well towards the corner";
   EXPECT_GT(r.x[0] + r.x[1], 1.3);
+  EXPECT_GT(r.refused_evaluations, 0) << "the iterates ran into the wall";
+  std::printf("[result] wall: x* = (%.4f, %.4f), %d of %d evaluations refused, %s\n", r.x[0],
+              r.x[1], r.refused_evaluations, r.evaluations, r.status);
   // A start inside the wall is refused.
   o.start = corner;
   EXPECT_EQ(cadinterp_optimize_solve(p, &o, &r), CADINTERP_E_INFEASIBLE);

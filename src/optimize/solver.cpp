@@ -176,7 +176,7 @@ class Nlp : public Ipopt::TNLP {
 
   std::vector<double> path, path_objective, path_violation, final_x;
   bool stalled = false;  // stopped here: no progress in kStallIterations iterations
-  int evaluations = 0;
+  int evaluations = 0, refused = 0;
   int iterations() const { return iterations_; }
   double optimality() const { return optimality_; }
 
@@ -199,6 +199,7 @@ class Nlp : public Ipopt::TNLP {
     ok_ = p_.evaluate(full_.data(), values_.data(), grad ? grads_.data() : nullptr, &error) ==
           CADINTERP_OK;
     for (double v : values_) ok_ = ok_ && std::isfinite(v);
+    if (!ok_ && !same) ++refused;
     have_values_ = true;
     have_grads_ = grad;
     return ok_;
@@ -282,12 +283,13 @@ bool run_start(Problem& p, const cadinterp_optimize_options& o, int index,
   }
   const Ipopt::ApplicationReturnStatus s = app->OptimizeTNLP(Ipopt::GetRawPtr(nlp));
   out->ipopt_status = static_cast<int>(s);
-  out->status = nlp->stalled ? "stalled: no decrease in 20 iterations (a kink of a linear "
-                               "asset's C0 interpolant, or the float noise floor)"
+  out->status = nlp->stalled ? "stalled: no decrease in 20 iterations (at a wall, a kink of a "
+                               "linear asset's C0 interpolant, or the float noise floor)"
                              : status_words(s);
   out->converged = s == Ipopt::Solve_Succeeded || s == Ipopt::Solved_To_Acceptable_Level;
   out->iterations = nlp->iterations();
   out->evaluations = nlp->evaluations;
+  out->refused = nlp->refused;
   out->optimality = nlp->optimality();
   out->path = nlp->path;
   out->path_objective = nlp->path_objective;
@@ -360,12 +362,13 @@ cadinterp_status solve(Problem& p, const cadinterp_optimize_options& o, Outcome*
   }
   bool have = false;
   Outcome best;
-  int iterations = 0, evaluations = 0;
+  int iterations = 0, evaluations = 0, refused = 0;
   for (std::size_t s = 0; s < starts.size(); ++s) {
     Outcome r;
     if (!run_start(p, o, static_cast<int>(s), starts[s], &r, error)) return CADINTERP_E_INTERNAL;
     iterations += r.iterations;
     evaluations += r.evaluations;
+    refused += r.refused;
     r.best_start = static_cast<int>(s);
     // Feasible for the constraints first (to Ipopt's constraint tolerance), then lowest.
     const double tol = 1e-6;
@@ -379,6 +382,7 @@ cadinterp_status solve(Problem& p, const cadinterp_optimize_options& o, Outcome*
   }
   best.iterations = iterations;
   best.evaluations = evaluations;
+  best.refused = refused;
   best.starts = static_cast<int>(starts.size());
   cadinterp_error_estimate(p.asset(), best.x.data(), &best.error_estimate);
   best.linear = cadinterp_degree(p.asset()) == 1;

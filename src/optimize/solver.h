@@ -14,7 +14,7 @@ struct Outcome {
   std::vector<double> x, constraints, path, path_objective;
   double objective = 0, violation = 0, gradient_norm = 0, optimality = 0, error_estimate = -1;
   int converged = 0, ipopt_status = 0, iterations = 0, evaluations = 0, starts = 0;
-  int best_start = 0, linear = 0;
+  int best_start = 0, linear = 0, refused = 0;
   std::string status, note;
 };
 

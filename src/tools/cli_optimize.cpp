@@ -105,8 +105,11 @@ void print_text(const Args& a, const cadinterp_optimize_result& r,
     std::printf("  %-16s %.9g\n", names[static_cast<std::size_t>(i)].c_str(), r.x[i]);
   std::printf("gradient:    |grad f| = %.3g over free parameters; Ipopt KKT error %.3g\n",
               r.gradient_norm, r.optimality);
-  std::printf("work:        %d iterations, %d evaluations, %d start%s (best: %d)\n", r.iterations,
-              r.evaluations, r.starts, r.starts == 1 ? "" : "s", r.best_start);
+  std::printf(
+      "work:        %d iterations, %d evaluations (%d refused by a wall), %d start%s "
+      "(best: %d)\n",
+      r.iterations, r.evaluations, r.refused_evaluations, r.starts, r.starts == 1 ? "" : "s",
+      r.best_start);
   if (r.error_estimate >= 0)
     std::printf("accuracy:    the builder's error estimate at x* is %.3g of the model diagonal\n",
                 r.error_estimate);
@@ -137,6 +140,7 @@ void print_json(const Args& a, const cadinterp_optimize_result& r,
   w.end_object();
   w.field("gradient_norm", r.gradient_norm).field("optimality", r.optimality);
   w.field("iterations", r.iterations).field("evaluations", r.evaluations);
+  w.field("refused_evaluations", r.refused_evaluations);
   w.field("starts", r.starts).field("best_start", r.best_start);
   w.field("error_estimate", r.error_estimate);
   w.field("linear_asset", r.linear_asset != 0).field("note", r.note);
