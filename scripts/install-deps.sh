@@ -45,6 +45,8 @@ PACKAGES=(
   # The frozen runtime ABI (abi/): abidw and abidiff run by the abi_check ctests; without them
   # the checks skip, so CI must have them.
   abigail-tools
+  # Shape optimization (src/optimize, `cadinterp optimize`): Ipopt, found through pkg-config.
+  coinor-libipopt-dev
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and

@@ -509,6 +509,37 @@ CADINTERP_API cadinterp_status cadinterp_eval_properties(cadinterp_workspace* ws
                                                          cadinterp_properties* out,
                                                          cadinterp_properties* grad);
 
+/**
+ * The integral of one component of a field over the interpolated solid at x, or over one
+ * boundary region of it, and optionally its derivatives with respect to x (for objectives such
+ * as the paper's integral of von Mises stress, §7.2):
+ * - region -1: sum over tets of vol_T * f_T, where f_T is the mean of the tet's 4 vertex values
+ *   (a per-vertex field, integrated exactly as the piecewise-linear field it is on the mesh) or
+ *   the tet's value (a per-tet field, constant per tet);
+ * - region r (0 <= r < cadinterp_region_count): sum over the boundary triangles whose tag is one
+ *   of the region's face tags of area_F * f_F, where f_F is the mean of the 3 vertex values or
+ *   the value of the tet the triangle bounds.
+ * With field -1 the integrand is 1: the volume of the mesh, or the area of the region.
+ * Volumes are signed (positively oriented tets are positive), as cadinterp_eval_properties'.
+ * Sums are taken in double over the float mesh cadinterp_eval returns at x. The derivatives are
+ * exact for the mesh: dI/dx = sum_t dpsi_t/dx (<dI/dP, P_t> + <dI/df, f_t>) (Eq. 13), with the
+ * same smoothness as cadinterp_grad (cubic assets C2, linear assets C0 with kinks; the one-sided
+ * derivative of the element holding x).
+ * @param[in]  x          K parameter values
+ * @param[in]  field      a field index, or -1 for the integrand 1
+ * @param[in]  component  0 <= component < the field's components (0 when field is -1)
+ * @param[in]  region     a region index, or -1 for the volume
+ * @param[out] value      the integral; untouched on failure
+ * @param[out] grad       NULL, or K values: dI/dx_k; untouched on failure
+ * @return as cadinterp_eval; CADINTERP_E_INVALID_ARGUMENT also for a NULL value, a field,
+ *         component or region index out of range (the message names which);
+ *         CADINTERP_E_CORRUPT_BLOB also when a region triangle bounds no tet (a per-tet field
+ *         over a region needs its owner). Thread-safety: as every call on a workspace.
+ */
+CADINTERP_API cadinterp_status cadinterp_eval_integral(cadinterp_workspace* ws, const double* x,
+                                                       int field, int component, int region,
+                                                       double* value, double* grad);
+
 /* ---- Deprecated names ------------------------------------------------------------------------
  * Each calls its new name and returns what it returns (same thread-safety, ownership and
  * failures). Names of library 0.1 (deprecated since 1.0): exported by every 1.x library, since

@@ -20,6 +20,7 @@
 #include "runtime/runtime_objects.h"
 
 using cadinterp::runtime::evaluate_grad;
+using cadinterp::runtime::evaluate_integral;
 using cadinterp::runtime::evaluate_mesh;
 using cadinterp::runtime::evaluate_properties;
 using cadinterp::runtime::evaluate_subset;
@@ -353,6 +354,15 @@ cadinterp_status cadinterp_eval_properties(cadinterp_workspace* ws, const double
     return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "direction not finite");
   CADINTERP_CATCH_BEGIN
   return evaluate_properties(ws, x, density, direction, out, grad);
+  CADINTERP_CATCH_END(&ws->error)
+}
+
+cadinterp_status cadinterp_eval_integral(cadinterp_workspace* ws, const double* x, int field,
+                                         int component, int region, double* value, double* grad) {
+  if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
+  if (!value) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "value is NULL");
+  CADINTERP_CATCH_BEGIN
+  return evaluate_integral(ws, x, field, component, region, value, grad);
   CADINTERP_CATCH_END(&ws->error)
 }
 

@@ -5,9 +5,12 @@
 #include "runtime/evaluate.h"
 
 #include <algorithm>
+#include <array>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -132,6 +135,16 @@ cadinterp_status overflow(cadinterp_workspace* ws) {
 bool finite_properties(const cadinterp_properties& p) {
   return std::isfinite(p.volume) && std::isfinite(p.mass) && std::isfinite(p.area) &&
          std::isfinite(p.frontal_area);
+}
+
+// Copies the K derivatives to dst when all are finite (clearing the message), else refuses the
+// overflow with dst untouched.
+cadinterp_status store_derivatives(cadinterp_workspace* ws, const double* out, int K, double* dst) {
+  for (int k = 0; k < K; ++k)
+    if (!std::isfinite(out[k])) return overflow(ws);
+  std::memcpy(dst, out, sizeof(double) * static_cast<std::size_t>(K));
+  ws->error.clear();
+  return CADINTERP_OK;
 }
 
 // out = sum_t weight_t * arrays_t (Eq. 3): the multi-output kernel with one output.
@@ -390,11 +403,7 @@ cadinterp_status evaluate_vjp(cadinterp_workspace* ws, const double* x, const fl
     }
     for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dot_t;
   }
-  for (int k = 0; k < K; ++k)
-    if (!std::isfinite(out[k])) return overflow(ws);
-  std::memcpy(dF_dx, out, sizeof(double) * static_cast<std::size_t>(K));
-  ws->error.clear();
-  return CADINTERP_OK;
+  return store_derivatives(ws, out, K, dF_dx);
 }
 
 cadinterp_status evaluate_properties(cadinterp_workspace* ws, const double* x, double density,
@@ -467,6 +476,209 @@ cadinterp_status evaluate_properties(cadinterp_workspace* ws, const double* x, d
   }
   if (!finite_properties(result)) return overflow(ws);
   *out = result;
+  ws->error.clear();
+  return CADINTERP_OK;
+}
+
+namespace {
+
+struct Vec3 {
+  double x, y, z;
+};
+Vec3 point(const float* p, std::uint32_t v) { return {p[3 * v], p[3 * v + 1], p[3 * v + 2]}; }
+Vec3 sub(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Vec3 cross(Vec3 a, Vec3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double dot3(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+void add_scaled(double* adj, std::uint32_t v, Vec3 g, double s) {
+  adj[3 * v] += s * g.x;
+  adj[3 * v + 1] += s * g.y;
+  adj[3 * v + 2] += s * g.z;
+}
+
+// The integrand of an integral: one component of a blended field at vertex or tet i, or 1.
+struct Integrand {
+  const float* values = nullptr;  // null: the integrand is 1
+  std::size_t stride = 1, component = 0;
+  bool per_tet = false;
+  double* adjoint = nullptr;  // d(integral)/d(value i), per vertex or tet; null without grad
+  double at(std::size_t i) const { return values ? values[i * stride + component] : 1.0; }
+};
+
+// sum over tets of vol * (mean of the 4 vertex values, or the tet's value): P1 integration of a
+// per-vertex field, exact for the piecewise-linear field on the tet mesh. The adjoint of each
+// corner position is f_avg * dvol/dp, with dvol/dp1 = (e2 x e3) / 6 and cyclically.
+double volume_integral(const float* pos, const Topology& topo, const Integrand& f, double* adj_p) {
+  double total = 0.0;
+  const std::size_t nt = topo.tets.size() / 4;
+  for (std::size_t t = 0; t < nt; ++t) {
+    const std::uint32_t* v = &topo.tets[4 * t];
+    const Vec3 p0 = point(pos, v[0]);
+    const Vec3 e1 = sub(point(pos, v[1]), p0), e2 = sub(point(pos, v[2]), p0),
+               e3 = sub(point(pos, v[3]), p0);
+    const Vec3 g1 = cross(e2, e3), g2 = cross(e3, e1), g3 = cross(e1, e2);
+    const double vol = dot3(e1, g1) / 6.0;
+    const double favg =
+        f.per_tet ? f.at(t) : 0.25 * (f.at(v[0]) + f.at(v[1]) + f.at(v[2]) + f.at(v[3]));
+    total += vol * favg;
+    if (!adj_p) continue;
+    const double s = favg / 6.0;
+    add_scaled(adj_p, v[1], g1, s);
+    add_scaled(adj_p, v[2], g2, s);
+    add_scaled(adj_p, v[3], g3, s);
+    add_scaled(adj_p, v[0], {g1.x + g2.x + g3.x, g1.y + g2.y + g3.y, g1.z + g2.z + g3.z}, -s);
+    if (!f.adjoint) continue;
+    if (f.per_tet)
+      f.adjoint[t] += vol;
+    else
+      for (int c = 0; c < 4; ++c) f.adjoint[v[c]] += 0.25 * vol;
+  }
+  return total;
+}
+
+// The tet owning each boundary triangle of `tris` (ids into topo.triangles), by its vertex set:
+// a per-tet field's value on a boundary triangle is that of the tet it bounds.
+bool owning_tets(const Topology& topo, const std::vector<std::size_t>& tris,
+                 std::vector<std::size_t>& owner) {
+  using Key = std::array<std::uint32_t, 3>;
+  auto key = [](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    Key k{a, b, c};
+    std::sort(k.begin(), k.end());
+    return k;
+  };
+  std::map<Key, std::size_t> slot;
+  for (std::size_t i = 0; i < tris.size(); ++i) {
+    const std::uint32_t* v = &topo.triangles[3 * tris[i]];
+    slot.emplace(key(v[0], v[1], v[2]), i);
+  }
+  owner.assign(tris.size(), SIZE_MAX);
+  static const int kFaces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  for (std::size_t t = 0; t < topo.tets.size() / 4; ++t)
+    for (const auto& fc : kFaces) {
+      const std::uint32_t* v = &topo.tets[4 * t];
+      const auto it = slot.find(key(v[fc[0]], v[fc[1]], v[fc[2]]));
+      if (it != slot.end()) owner[it->second] = t;
+    }
+  return std::find(owner.begin(), owner.end(), SIZE_MAX) == owner.end();
+}
+
+// sum over the region's triangles of area * (mean of the 3 vertex values, or the owning tet's
+// value). With n = e1 x e2 and area |n| / 2: darea/dp1 = (e2 x n^) / 2, darea/dp2 = (n^ x e1) / 2.
+cadinterp_status region_integral(cadinterp_workspace* ws, const float* pos, const Topology& topo,
+                                 const RegionSlot& region, const Integrand& f, double* adj_p,
+                                 double* total) {
+  std::vector<std::size_t> tris, owner;
+  for (std::size_t i = 0; i < topo.triangle_tags.size(); ++i)
+    if (std::find(region.tags.begin(), region.tags.end(), topo.triangle_tags[i]) !=
+        region.tags.end())
+      tris.push_back(i);
+  if (f.per_tet && !owning_tets(topo, tris, owner))
+    return fail(ws, CADINTERP_E_CORRUPT_BLOB,
+                "a boundary triangle of region '" + region.name + "' bounds no tet");
+  double sum = 0.0;
+  for (std::size_t i = 0; i < tris.size(); ++i) {
+    const std::uint32_t* v = &topo.triangles[3 * tris[i]];
+    const Vec3 p0 = point(pos, v[0]);
+    const Vec3 e1 = sub(point(pos, v[1]), p0), e2 = sub(point(pos, v[2]), p0);
+    const Vec3 n = cross(e1, e2);
+    const double len = std::sqrt(dot3(n, n)), area = 0.5 * len;
+    const double favg = f.per_tet ? f.at(owner[i]) : (f.at(v[0]) + f.at(v[1]) + f.at(v[2])) / 3.0;
+    sum += area * favg;
+    if (!adj_p) continue;
+    if (len > 0.0) {
+      const Vec3 u{n.x / len, n.y / len, n.z / len};
+      const Vec3 g1 = cross(e2, u), g2 = cross(u, e1);
+      add_scaled(adj_p, v[1], g1, 0.5 * favg);
+      add_scaled(adj_p, v[2], g2, 0.5 * favg);
+      add_scaled(adj_p, v[0], {g1.x + g2.x, g1.y + g2.y, g1.z + g2.z}, -0.5 * favg);
+    }
+    if (!f.adjoint) continue;
+    if (f.per_tet)
+      f.adjoint[owner[i]] += area;
+    else
+      for (int c = 0; c < 3; ++c) f.adjoint[v[c]] += area / 3.0;
+  }
+  *total = sum;
+  return CADINTERP_OK;
+}
+
+}  // namespace
+
+cadinterp_status evaluate_integral(cadinterp_workspace* ws, const double* x, int field,
+                                   int component, int region, double* value, double* grad) {
+  const cadinterp_asset& a = *ws->asset;
+  if (field < -1 || field >= static_cast<int>(a.fields.size()))
+    return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "field index out of range");
+  const int components = field < 0 ? 1 : a.fields[static_cast<std::size_t>(field)].components;
+  if (component < 0 || component >= components)
+    return fail(ws, CADINTERP_E_INVALID_ARGUMENT,
+                "component " + std::to_string(component) + " out of range (the field has " +
+                    std::to_string(components) + ")");
+  if (region < -1 || region >= static_cast<int>(a.regions.size()))
+    return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "region index out of range");
+  const int nf = field >= 0 ? 1 : 0;
+  core::BasisWeights w;
+  const cadinterp_status s = prepare(ws, x, &field, nf, grad != nullptr, nf > 0, &w);
+  if (s != CADINTERP_OK) return s;
+  const DecodedElement& d = ws->element->mesh;
+  const Topology& topo = *d.topology;
+  const std::size_t nv = d.vertex_count, nt = topo.tets.size() / 4;
+  ws->positions.resize(nv * 3);
+  blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
+  if (!finite_floats(ws->positions.data(), nv * 3)) return overflow(ws);
+  Integrand f;
+  std::size_t n = 0, off = 0;
+  if (nf) {
+    n = field_size(a, field, nv, nt);
+    off = field_offset(a, field, nv, nt);
+    ws->field_values.resize(1);
+    ws->field_values[0].resize(n);
+    blend(ws, w.psi, off, n, false, ws->field_values[0].data());
+    if (!finite_floats(ws->field_values[0].data(), n)) return overflow(ws);
+    f.values = ws->field_values[0].data();
+    f.stride = static_cast<std::size_t>(components);
+    f.component = static_cast<std::size_t>(component);
+    f.per_tet = a.fields[static_cast<std::size_t>(field)].location == CADINTERP_PER_TET;
+  }
+  double* adj_p = nullptr;
+  if (grad) {
+    ws->adjoint.assign(nv * 3, 0.0);
+    adj_p = ws->adjoint.data();
+    if (nf) {
+      ws->field_adjoint.assign(n / static_cast<std::size_t>(components), 0.0);
+      f.adjoint = ws->field_adjoint.data();
+    }
+  }
+  double total = 0.0;
+  if (region < 0) {
+    total = volume_integral(ws->positions.data(), topo, f, adj_p);
+  } else {
+    const cadinterp_status r =
+        region_integral(ws, ws->positions.data(), topo, a.regions[static_cast<std::size_t>(region)],
+                        f, adj_p, &total);
+    if (r != CADINTERP_OK) return r;
+  }
+  if (!std::isfinite(total)) return overflow(ws);
+  if (grad) {
+    // dI/dx_k = sum_t dpsi_t/dx_k (<dI/dP, p_t> + <dI/df, f_t>) (Eq. 13 contracted), in double.
+    const int K = a.reader->basis().dim();
+    double out[core::kMaxDim] = {};
+    for (int t = 0; t < w.count; ++t) {
+      const float* p = d.positions[static_cast<std::size_t>(t)].data();
+      double dt = 0.0;
+      for (std::size_t i = 0; i < nv * 3; ++i) dt += ws->adjoint[i] * p[i];
+      if (nf) {
+        const float* v = (*ws->fields)[static_cast<std::size_t>(t)].data() + off;
+        for (std::size_t i = 0; i < ws->field_adjoint.size(); ++i)
+          dt += ws->field_adjoint[i] * v[i * f.stride + f.component];
+      }
+      for (int k = 0; k < K; ++k) out[k] += w.dpsi[k * w.count + t] * dt;
+    }
+    const cadinterp_status g = store_derivatives(ws, out, K, grad);
+    if (g != CADINTERP_OK) return g;
+  }
+  *value = total;
   ws->error.clear();
   return CADINTERP_OK;
 }

@@ -30,4 +30,9 @@ cadinterp_status evaluate_properties(cadinterp_workspace* ws, const double* x, d
                                      const double* direction, cadinterp_properties* out,
                                      cadinterp_properties* grad);
 
+// cadinterp_eval_integral: the integral of one component of a field (field -1: of 1) over the
+// tets (region -1) or over a region's boundary triangles, and its K derivatives if grad.
+cadinterp_status evaluate_integral(cadinterp_workspace* ws, const double* x, int field,
+                                   int component, int region, double* value, double* grad);
+
 }  // namespace cadinterp::runtime

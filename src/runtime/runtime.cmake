@@ -28,6 +28,8 @@ if(CADINTERP_BUILD_TESTS)
     LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
   cadinterp_add_test(runtime_open_options_tests ${CMAKE_CURRENT_LIST_DIR}/open_options_test.cpp
     LIBS cadinterp cadinterp_format)
+  cadinterp_add_test(runtime_integral_tests ${CMAKE_CURRENT_LIST_DIR}/integral_test.cpp
+    LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_names_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_names_test.cpp
     LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_alloc_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_alloc_test.cpp

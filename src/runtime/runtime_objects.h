@@ -53,8 +53,9 @@ struct cadinterp_workspace {
   std::vector<float> positions, dpositions;
   std::vector<std::vector<float>> field_values, field_grads;
   std::vector<const float*> field_ptrs, field_grad_ptrs;
-  std::vector<double> adjoint;  // #V by 3 scratch for mass-property gradients
-  std::vector<double> dots;     // per term
+  std::vector<double> adjoint;        // #V by 3 scratch for mass-property gradients
+  std::vector<double> dots;           // per term
+  std::vector<double> field_adjoint;  // per vertex or tet: d(integral)/d(field value)
   std::string error;
 };
 

@@ -107,6 +107,14 @@ ArgParser& ArgParser::option(const std::string& name, char short_name, const std
   return *this;
 }
 
+ArgParser& ArgParser::repeated(const std::string& name, char short_name, const std::string& metavar,
+                               const std::string& help, std::vector<std::string>* out) {
+  Option& o = add(name, short_name, metavar, help + " (may be repeated)");
+  o.repeatable = true;
+  o.set = [out](const std::string& v) { out->push_back(v); };
+  return *this;
+}
+
 ArgParser& ArgParser::option(const std::string& name, char short_name, const std::string& metavar,
                              const std::string& help, int* out, int min, int max) {
   Option& o = add(name, short_name, metavar, help);
@@ -256,7 +264,7 @@ bool ArgParser::parse(const std::vector<std::string>& args) {
       shown = a;
       if (!o) throw UsageError("unknown option " + a);
     }
-    if (o->was_seen) throw UsageError("option " + shown + " given twice");
+    if (o->was_seen && !o->repeatable) throw UsageError("option " + shown + " given twice");
     o->was_seen = true;
     if (!o->takes_value) {
       if (inline_value) throw UsageError("option " + shown + " takes no value");

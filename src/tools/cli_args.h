@@ -43,6 +43,9 @@ class ArgParser {
                     const std::string& help, int* out, int min, int max);
   ArgParser& option(const std::string& name, char short_name, const std::string& metavar,
                     const std::string& help, double* out, double min, double max);
+  /// A string option that may be given several times: each value is appended to `out`.
+  ArgParser& repeated(const std::string& name, char short_name, const std::string& metavar,
+                      const std::string& help, std::vector<std::string>* out);
   /// One of `choices` (exact match).
   ArgParser& choice(const std::string& name, char short_name, const std::string& help,
                     const std::vector<std::string>& choices, std::string* out);
@@ -75,6 +78,7 @@ class ArgParser {
     bool takes_value = true;
     bool is_required = false;
     bool was_seen = false;
+    bool repeatable = false;
     std::function<void(const std::string&)> set;  // throws UsageError with the reason
   };
   struct Positional {

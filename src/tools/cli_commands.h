@@ -14,6 +14,7 @@ int cmd_inspect(const std::vector<std::string>& args);
 int cmd_eval(const std::vector<std::string>& args);
 int cmd_bench(const std::vector<std::string>& args);
 int cmd_explore(const std::vector<std::string>& args);
+int cmd_optimize(const std::vector<std::string>& args);
 
 /// For `cadinterp --version`, from whichever file provides cmd_build: "yes", or "no (why)".
 const char* builder_availability();

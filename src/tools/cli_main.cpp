@@ -5,6 +5,7 @@
 //   cadinterp eval     ASSET X1 X2 ... [options]                  shape, metrics, exports at x
 //   cadinterp bench    ASSET [--iterations N]                     open/eval/grad/vjp timings
 //   cadinterp explore  ASSET [--port N] [--bind ADDR]             the web explorer for ASSET
+//   cadinterp optimize ASSET --minimize EXPR [--subject-to C ...]  Ipopt on the interpolant
 //
 // Exit codes: 0 success, 1 a runtime or build error (the message names the cadinterp_status),
 // 2 a malformed command line. Evaluation goes through the public C ABI only, so the tool behaves
@@ -41,6 +42,8 @@ const Command kCommands[] = {
     {"bench", "time opening and evaluating an asset", cmd_bench},
     {"explore", "serve the interactive web explorer for an asset (sliders, live mesh, fields)",
      cmd_explore},
+    {"optimize", "minimize a quantity of the interpolated shape with Ipopt (exact gradients)",
+     cmd_optimize},
 };
 
 std::string top_help() {
@@ -95,7 +98,8 @@ int run(const std::vector<std::string>& args) {
     if (name == k.name) c = &k;
   if (!c) {
     std::fprintf(stderr,
-                 "cadinterp: unknown command '%s' (commands: build, inspect, eval, bench, explore; "
+                 "cadinterp: unknown command '%s' (commands: build, inspect, eval, bench, explore, "
+                 "optimize; "
                  "see 'cadinterp --help')\n",
                  name.c_str());
     return kExitUsage;

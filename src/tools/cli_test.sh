@@ -313,6 +313,28 @@ assert "stopped" in out, out
 EOF
 fi
 
+# ---- optimize (needs libcadinterp_optimize, i.e. Ipopt) -------------------------------------------
+if run 0 help_optimize -- optimize --help && ! grep -q "built without" "$WORK/help_optimize.out"; then
+  # The synthetic box: its volume grows with bend (parameter 0); stress is a per-tet field.
+  run 0 opt_text -- optimize "$A2" --minimize 'integral(stress) + 0.5*volume' \
+    --subject-to 'volume <= 0.125' --fix twist=0.25 && contains opt_text out "status:" &&
+    contains opt_text out "x*:" && contains opt_text out "linear asset" &&
+    contains opt_text err "start 0 iter   0"
+  if run 0 opt_json -- optimize "$A2" --minimize 'max(temperature, ks=5)' --multistart 3 --json; then
+    [ "$(json_get "$WORK/opt_json.out" 'd["starts"]')" = 3 ] || fail "opt_json: starts != 3"
+    [ "$(json_get "$WORK/opt_json.out" 'len(d["path"]) > 0')" = True ] || fail "opt_json: no path"
+  fi
+  run 2 opt_syntax -- optimize "$A2" --minimize 'integral(stress) + 0.1*mas' &&
+    contains opt_syntax err "column 24: unknown quantity 'mas'"
+  run 2 opt_field -- optimize "$A2" --minimize 'integral(von_mises)' &&
+    contains opt_field err "the asset has no field 'von_mises'"
+  run 2 opt_fix -- optimize "$A2" --minimize volume --fix size=1 &&
+    contains opt_fix err "no parameter 'size' (it has bend, twist)"
+  # The infeasible corner is a wall: a start inside it is refused, a run ends outside it.
+  run 1 opt_wall_start -- optimize "$VALID/k2_infeasible/asset.cadi" --minimize volume \
+    --start 0.95,0.95 && contains opt_wall_start err "CADINTERP_E_INFEASIBLE"
+fi
+
 if [ "$failures" -ne 0 ]; then
   echo "$failures check(s) failed (outputs in $WORK)"
   exit 1
