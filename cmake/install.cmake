@@ -1,6 +1,7 @@
 # `cmake --install`: the public headers, libcadinterp (shared and static), libcadinterp_builder,
 # the `cadinterp` tool, the CMake package (cadinterpConfig.cmake, its version file and the
-# exported targets cadinterp::runtime, cadinterp::runtime_static, cadinterp::builder) and
+# exported targets cadinterp::runtime, cadinterp::runtime_static, cadinterp::builder and,
+# with Ipopt, cadinterp::optimize) and
 # cadinterp.pc. Included last from the top-level CMakeLists.txt, when every target exists; a
 # runtime-only build (no builder) installs the rest. scripts/test-install.sh consumes a staged
 # install of it.
@@ -21,6 +22,9 @@ set(_cadinterp_libs cadinterp cadinterp_static)
 if(TARGET cadinterp_builder)
   list(APPEND _cadinterp_libs cadinterp_builder)
 endif()
+if(TARGET cadinterp_optimize)
+  list(APPEND _cadinterp_libs cadinterp_optimize)
+endif()
 foreach(_lib IN LISTS _cadinterp_libs)
   set_property(TARGET ${_lib} PROPERTY INTERFACE_INCLUDE_DIRECTORIES
                $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>)
@@ -29,6 +33,9 @@ set_target_properties(cadinterp PROPERTIES EXPORT_NAME runtime)
 set_target_properties(cadinterp_static PROPERTIES EXPORT_NAME runtime_static)
 if(TARGET cadinterp_builder)
   set_target_properties(cadinterp_builder PROPERTIES EXPORT_NAME builder)
+endif()
+if(TARGET cadinterp_optimize)
+  set_target_properties(cadinterp_optimize PROPERTIES EXPORT_NAME optimize)
 endif()
 
 install(TARGETS ${_cadinterp_libs} EXPORT cadinterpTargets

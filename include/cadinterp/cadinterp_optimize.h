@@ -1,7 +1,11 @@
 /* cadinterp optimize: shape optimization on the interpolant of an opened asset (paper §7.2), with
  * Ipopt (interior point, limited-memory Hessian) and the runtime's exact gradients.
  *
- * C99, stable ABI, in the conventions of cadinterp.h: every fallible function returns a
+ * EXPERIMENTAL ABI (CADINTERP_OPTIMIZE_ABI_VERSION, 0), as cadinterp_builder.h's: this header may
+ * change incompatibly in a release, each change listed in CHANGELOG.md with a new SONAME
+ * libcadinterp_optimize.so.N. Link libcadinterp_optimize.
+ *
+ * C99, in the conventions of cadinterp.h: every fallible function returns a
  * cadinterp_status (CADINTERP_OK is 0) and leaves its outputs untouched on failure; each call on
  * a problem keeps a message (cadinterp_optimize_error: "" after a success); a NULL problem or a
  * NULL pointer where a value is read or written gives CADINTERP_E_INVALID_ARGUMENT (without a

@@ -23,6 +23,10 @@
  * lists each change. */
 #define CADINTERP_BUILDER_ABI_VERSION 0
 
+/** Optimizer ABI version: N in the SONAME libcadinterp_optimize.so.N. 0 while the optimizer ABI
+ * (cadinterp_optimize.h) is experimental, in the builder's sense above. */
+#define CADINTERP_OPTIMIZE_ABI_VERSION 0
+
 /** Marks a declaration kept under an old name (CHANGELOG.md, "Deprecated");
  * compilers warn where it is used, in C99 and C++ alike. Define CADINTERP_DEPRECATED(msg) as
  * empty before including any cadinterp header to silence them. */
