@@ -98,7 +98,7 @@ void run_case(const fs::path& dir) {
     if (key == "open") {
       std::string s;
       in >> s;
-      const cadinterp_status got = cadinterp_open((dir / "asset.cadi").c_str(), &asset);
+      const cadinterp_status got = cadinterp_open((dir / "asset.cadi").u8string().c_str(), &asset);
       if (got != parse_status(s))
         throw Failure(std::string("open: got ") + cadinterp_status_string(got) + " (" +
                       cadinterp_open_error() + "), expected " + s);
