@@ -91,6 +91,15 @@ run_windows() {
     echo "test-cross: the conformance runner failed under Wine (exit $rc; log: $log)" >&2
     exit 1
   fi
+  # File names outside the ANSI code page: the runtime takes UTF-8 and opens through UTF-16
+  # (src/format/mapped_file_win32.cpp). Two cases under such names must pass as well.
+  local utf8="$dir/utf8-cases"
+  rm -rf "$utf8" && mkdir -p "$utf8/valid" "$utf8/invalid"
+  cp -r "$cases/valid/k1_linear" "$utf8/valid/k1_linear_äø€日本"
+  cp -r "$cases/invalid/empty" "$utf8/invalid/empty_ß✓"
+  timeout 120 wine "$dir/bin/cadinterp-conformance.exe" "$utf8" >"$log.utf8" 2>&1 ||
+    { tr -d '\r' <"$log.utf8"; echo "test-cross: non-ASCII file names failed under Wine" >&2; exit 1; }
+  echo "non-ASCII file names: $(tr -d '\r' <"$log.utf8" | grep '^conformance:')"
   results+=("windows-x86_64 (MinGW-w64, $(wine --version 2>/dev/null)): conformance $(conformance_score "$log") passed")
 }
 
