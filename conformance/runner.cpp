@@ -129,7 +129,7 @@ void run_case(const fs::path& dir, const Dump& dump) {
     if (key == "open") {
       std::string s;
       in >> s;
-      const cadinterp_status got = cadinterp_open((dir / "asset.cadi").c_str(), &asset);
+      const cadinterp_status got = cadinterp_open((dir / "asset.cadi").u8string().c_str(), &asset);
       dump.text("open", std::to_string(got));
       if (got != parse_status(s))
         throw Failure(std::string("open: got ") + cadinterp_status_string(got) + " (" +

@@ -12,7 +12,7 @@ jobs=2
 if [ "${1:-}" = "-j" ] && [ -n "${2:-}" ]; then jobs="$2"; fi
 out="${CADINTERP_WASM_OUT:-$root/build/wasm}"
 obj="${CADINTERP_WASM_OBJ:-$root/build/wasm-obj}"
-deps="$root/build/wasm-deps"
+deps="$root/build/codec-sources"
 simd="${CADINTERP_WASM_SIMD:-ON}"
 
 for tool in emcmake emcc flatc cmake ninja; do
@@ -23,17 +23,9 @@ done
 # the NodeSource node does not search.
 export NODE_PATH="/usr/share/nodejs${NODE_PATH:+:$NODE_PATH}"
 
-"$root/scripts/fetch-wasm-sources.sh" "$deps"
-
-# Private copies of the header-only libraries (emcc must not see the host's /usr/include).
-mkdir -p "$deps/include"
-if [ ! -f "$deps/include/flatbuffers/flatbuffers.h" ] || [ /usr/include/flatbuffers/flatbuffers.h -nt "$deps/include/flatbuffers/flatbuffers.h" ]; then
-  rm -rf "$deps/include/flatbuffers"
-  cp -r /usr/include/flatbuffers "$deps/include/flatbuffers"
-fi
-if [ ! -f "$deps/include/xxhash.h" ] || [ /usr/include/xxhash.h -nt "$deps/include/xxhash.h" ]; then
-  cp /usr/include/xxhash.h "$deps/include/xxhash.h"
-fi
+# The codec sources and private copies of the header-only libraries (emcc must not see the
+# host's /usr/include).
+"$root/scripts/fetch-codec-sources.sh" "$deps"
 
 mkdir -p "$out"
 cached() { sed -n "s/^$1:[A-Z]*=//p" "$obj/CMakeCache.txt" 2>/dev/null; }

@@ -19,7 +19,7 @@ scripts/install-deps.sh
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCADINTERP_FUZZ=ON -DCADINTERP_SANITIZE=address,undefined \
-  -DCADINTERP_BUILD_TESTS=OFF -DCADINTERP_BUILD_BENCHMARKS=OFF >/dev/null
+  -DCADINTERP_BUILD_TESTING=OFF -DCADINTERP_BUILD_BENCHMARKS=OFF >/dev/null
 cmake --build "$build" --target "${targets[@]}" -j "$(nproc)"
 
 binary() {

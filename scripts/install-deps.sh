@@ -34,7 +34,7 @@ PACKAGES=(
   libsuitesparse-dev                # CHOLMOD: the FEM physics' direct solver
   libcpp-httplib-dev                # `cadinterp explore`'s embedded HTTP server
   emscripten                        # the WebAssembly runtime (bindings/wasm); its codec sources
-                                    # come from Debian source packages (fetch-wasm-sources.sh)
+                                    # come from Debian source packages (fetch-codec-sources.sh)
   chromium                          # the explorer's end-to-end tests (headless)
   # The Python package (bindings/python), built and tested with Debian's /usr/bin/python3.
   python3-dev                       # Python.h for the extension module
@@ -47,6 +47,21 @@ PACKAGES=(
   abigail-tools
   # Shape optimization (src/optimize, `cadinterp optimize`): Ipopt, found through pkg-config.
   coinor-libipopt-dev
+  # Cross builds of the runtime (scripts/test-cross.sh, docs/portability.md): Windows through
+  # MinGW-w64, run under Wine (codec libraries from source, fetch-codec-sources.sh); arm64 against
+  # Debian's multiarch :arm64 libraries, run under qemu-user (architecture added below).
+  g++-mingw-w64-x86-64
+  wine
+  wine64
+  qemu-user
+  g++-aarch64-linux-gnu
+  libzstd-dev:arm64
+  libmeshoptimizer-dev:arm64
+  libdraco-dev:arm64
+  libflatbuffers-dev:arm64
+  libxxhash-dev:arm64
+  libgtest-dev:arm64
+  libgmock-dev:arm64
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and
@@ -74,6 +89,12 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
+# The :arm64 packages need the architecture known to dpkg (once; the update below reads its
+# indexes).
+if printf '%s\n' "${missing[@]}" | grep -q ':arm64$' &&
+   ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  $SUDO dpkg --add-architecture arm64
+fi
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 

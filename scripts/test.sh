@@ -6,6 +6,7 @@
 #   asan    the full suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan    the tests labelled 'concurrency' under ThreadSanitizer
 #   wasm    the runtime in WebAssembly: its JS API under Node against the conformance cases
+#   cross   the runtime cross-compiled for Windows (run under Wine) and arm64 (under qemu-user)
 #   explorer `cadinterp explore` and its page in headless Chromium, against the native runtime
 #   fuzz    the libFuzzer targets (open+eval, every C ABI call, every codec) side by side for 30 s
 #           (clang, ASan + UBSan), seeded from conformance and encoder outputs
@@ -60,6 +61,9 @@ ctest --preset tsan -j "$JOBS" -L concurrency
 
 step "wasm: build the WebAssembly runtime, run its Node tests"
 quiet_unless_failed build/wasm-test.log scripts/test-wasm.sh
+
+step "cross: the runtime on Windows (MinGW-w64, Wine) and arm64 (qemu-user), conformance + unit tests"
+scripts/test-cross.sh all
 
 step "explorer: the web page in headless Chromium against the native runtime"
 BUILD_DIR=build/release quiet_unless_failed build/explorer-test.log scripts/test-explorer.sh

@@ -37,14 +37,22 @@
 #include "cadinterp/cadinterp_status.h"
 #include "cadinterp/cadinterp_version.h"
 
-#if defined(_WIN32)
-#if defined(CADINTERP_BUILDING_LIBRARY)
+/* CADINTERP_API marks the exported functions. Windows: dllexport while libcadinterp.dll is built,
+ * dllimport for its users, nothing for a static link (define CADINTERP_STATIC, as the static
+ * library's CMake target does for its users). ELF and Mach-O: default visibility, the library
+ * being compiled with hidden visibility. */
+#if defined(_WIN32) || defined(__CYGWIN__)
+#if defined(CADINTERP_STATIC)
+#define CADINTERP_API
+#elif defined(CADINTERP_BUILDING_LIBRARY)
 #define CADINTERP_API __declspec(dllexport)
 #else
 #define CADINTERP_API __declspec(dllimport)
 #endif
-#else
+#elif defined(__GNUC__) || defined(__clang__)
 #define CADINTERP_API __attribute__((visibility("default")))
+#else
+#define CADINTERP_API
 #endif
 
 #ifdef __cplusplus

@@ -1,9 +1,5 @@
 #include "format/asset_reader.h"
 
-#include <fcntl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <xxhash.h>
 
 #include <algorithm>
@@ -19,6 +15,7 @@
 #include "cadinterp_generated.h"
 #include "format/codec.h"
 #include "format/format_version.h"
+#include "format/mapped_file.h"
 
 namespace cadinterp::format {
 
@@ -413,37 +410,14 @@ void check_tiling(std::vector<Extent>& extents, std::uint64_t section, bool gaps
 
 }  // namespace
 
-AssetReader::~AssetReader() {
-  if (map_) munmap(map_, static_cast<std::size_t>(size_));
-}
+AssetReader::~AssetReader() = default;
 
 std::unique_ptr<AssetReader> AssetReader::open_file(const std::string& path,
                                                     const ReadLimits& limits) {
-  // O_NONBLOCK: opening a FIFO without a writer (or a device) would otherwise wait forever; the
-  // fstat below refuses anything but a regular file, for which the flag changes nothing.
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
-  if (fd < 0) throw FormatError(Status::Io, "cannot open " + path + ": " + std::strerror(errno));
-  struct stat st {};
-  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    ::close(fd);
-    throw FormatError(Status::Io, path + " is not a readable regular file");
-  }
   std::unique_ptr<AssetReader> r(new AssetReader());
-  r->size_ = static_cast<std::uint64_t>(st.st_size);
-  if (r->size_ > 0) {
-    void* m = mmap(nullptr, static_cast<std::size_t>(r->size_), PROT_READ, MAP_PRIVATE, fd, 0);
-    if (m == MAP_FAILED) {
-      ::close(fd);
-      throw FormatError(Status::Io, "cannot map " + path + ": " + std::strerror(errno));
-    }
-    // Open reads a few pages (header, index) and decoding reads one element's blobs: the
-    // kernel's default read-ahead (8 MB on some disks) made the first fault of a cold open
-    // cost ~4 ms. Blobs ask for their own pages (blob()).
-    ::madvise(m, static_cast<std::size_t>(r->size_), MADV_RANDOM);
-    r->map_ = m;
-    r->data_ = static_cast<const std::uint8_t*>(m);
-  }
-  ::close(fd);
+  r->map_ = std::make_unique<MappedFile>(path);
+  r->data_ = r->map_->data();
+  r->size_ = r->map_->size();
   r->open(limits);
   return r;
 }
@@ -491,12 +465,7 @@ AssetReader::Bytes AssetReader::blob(const void* ref) const {
   const auto* r = static_cast<const fb::BlobRef*>(ref);
   const std::uint8_t* p = data_ + blobs_ + r->offset();
   const auto n = static_cast<std::size_t>(r->size());
-  if (map_ && n > 0) {  // read the blob's pages ahead in one go (see open_file: MADV_RANDOM)
-    const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
-    const std::uintptr_t first = reinterpret_cast<std::uintptr_t>(p) & ~(page - 1);
-    ::madvise(reinterpret_cast<void*>(first), reinterpret_cast<std::uintptr_t>(p) + n - first,
-              MADV_WILLNEED);
-  }
+  if (map_) map_->will_need(p, n);  // the blob's pages in one go (the map reads at random)
   if (XXH64(p, n, 0) != r->checksum())
     throw FormatError(Status::ChecksumMismatch,
                       "blob at offset " + std::to_string(r->offset()) + ": checksum mismatch");

@@ -37,6 +37,8 @@ struct Asset;
 
 namespace cadinterp::format {
 
+class MappedFile;  // mapped_file.h
+
 /// An allocator whose argument-less construct() default-initializes: a vector of floats or ints
 /// resized to n is allocated but not written. Decoders overwrite every value, so std::vector's
 /// zero fill would be a wasted pass over tens of megabytes per element, and it would take the
@@ -148,7 +150,7 @@ class AssetReader {
   std::uint64_t size_ = 0;
   std::vector<std::uint8_t> owned_;        // copied bytes (open_memory with copy)
   std::vector<std::uint64_t> index_copy_;  // 8-aligned copy of a misaligned index
-  void* map_ = nullptr;                    // mmap base (open_file)
+  std::unique_ptr<MappedFile> map_;        // the mapped file (open_file)
   const fb::Asset* index_ = nullptr;
   std::uint64_t blobs_ = 0;  // file offset of the blob section
   core::CompiledBasis basis_;

@@ -7,6 +7,6 @@ add_library(cadinterp_runtime_kernels STATIC
 target_include_directories(cadinterp_runtime_kernels PUBLIC ${PROJECT_SOURCE_DIR}/src)
 target_link_libraries(cadinterp_runtime_kernels PRIVATE cadinterp_warnings)
 
-if(CADINTERP_BUILD_TESTS)
+if(CADINTERP_BUILD_TESTING)
   cadinterp_add_test(runtime_metrics_tests mesh_metrics_test.cpp LIBS cadinterp_runtime_kernels)
 endif()

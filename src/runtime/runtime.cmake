@@ -11,11 +11,15 @@ target_compile_definitions(cadinterp PRIVATE CADINTERP_BUILDING_LIBRARY)
 target_link_libraries(cadinterp PRIVATE cadinterp_format cadinterp_runtime_kernels cadinterp_warnings)
 # ABI version (soname) is kept apart from the library and format versions (CONVENTIONS.md).
 set_target_properties(cadinterp PROPERTIES VERSION ${PROJECT_VERSION}
-  SOVERSION ${CADINTERP_ABI_VERSION}
-  LINK_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
-target_link_options(cadinterp PRIVATE -Wl,--version-script=${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
+  SOVERSION ${CADINTERP_ABI_VERSION})
+# Exports per platform: on ELF, hidden visibility plus the version script (symbol versions); on
+# Windows, __declspec(dllexport) of CADINTERP_API alone decides (cadinterp.h).
+if(CMAKE_EXECUTABLE_FORMAT STREQUAL "ELF")
+  set_property(TARGET cadinterp APPEND PROPERTY LINK_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
+  target_link_options(cadinterp PRIVATE -Wl,--version-script=${CMAKE_CURRENT_LIST_DIR}/cadinterp.map)
+endif()
 
-if(CADINTERP_BUILD_TESTS)
+if(CADINTERP_BUILD_TESTING)
   # A C99 translation unit that includes the public headers and calls the library.
   add_executable(runtime_api_c99_test ${CMAKE_CURRENT_LIST_DIR}/api_c99_test.c)
   set_target_properties(runtime_api_c99_test PROPERTIES C_STANDARD 99 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
@@ -40,11 +44,11 @@ if(CADINTERP_BUILD_TESTS)
     LIBS cadinterp cadinterp_format Threads::Threads LABELS concurrency)
 endif()
 
-if(CADINTERP_BUILD_TESTS)
+if(CADINTERP_BUILD_TESTING AND CMAKE_EXECUTABLE_FORMAT STREQUAL "ELF")
   # The shared library exports the C ABI and nothing else, under the SONAME of
   # CADINTERP_ABI_VERSION.
   add_test(NAME runtime_exports
-           COMMAND bash -c "bad=$(nm -D --defined-only $<TARGET_FILE:cadinterp> | awk '{print $3}' | grep -v -e '^cadinterp_' -e '^CADINTERP_1$'); if [ -n \"$bad\" ]; then echo \"unexpected exports: $bad\"; exit 1; fi; readelf -d $<TARGET_FILE:cadinterp> | grep -q 'SONAME.*\\[libcadinterp[.]so[.]${CADINTERP_ABI_VERSION}\\]' || { echo 'SONAME is not libcadinterp.so.${CADINTERP_ABI_VERSION}'; exit 1; }; echo \"exports: $(nm -D --defined-only $<TARGET_FILE:cadinterp> | grep -c ' cadinterp_') cadinterp_* symbols\"")
+           COMMAND bash -c "bad=$(${CMAKE_NM} -D --defined-only $<TARGET_FILE:cadinterp> | awk '{print $3}' | grep -v -e '^cadinterp_' -e '^CADINTERP_1$'); if [ -n \"$bad\" ]; then echo \"unexpected exports: $bad\"; exit 1; fi; readelf -d $<TARGET_FILE:cadinterp> | grep -q 'SONAME.*\\[libcadinterp[.]so[.]${CADINTERP_ABI_VERSION}\\]' || { echo 'SONAME is not libcadinterp.so.${CADINTERP_ABI_VERSION}'; exit 1; }; echo \"exports: $(${CMAKE_NM} -D --defined-only $<TARGET_FILE:cadinterp> | grep -c ' cadinterp_') cadinterp_* symbols\"")
   set_tests_properties(runtime_exports PROPERTIES LABELS unit)
 endif()
 

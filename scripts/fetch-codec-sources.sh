@@ -1,38 +1,55 @@
 #!/usr/bin/env bash
 # Fetches the C/C++ sources of the codec libraries the runtime decodes blobs with (zstd,
-# meshoptimizer, Draco) for the WebAssembly build: Debian ships them only as native libraries,
-# so the Debian *source* packages of exactly the installed -dev versions are downloaded and
-# unpacked into a cache outside git. Idempotent: a second run does nothing (no network).
+# meshoptimizer, Draco) for the builds Debian has no libraries for (WebAssembly, Windows through
+# MinGW-w64): the Debian *source* packages of exactly the installed -dev versions are downloaded
+# and unpacked into a cache outside git, so that every build decodes exactly what the native
+# encoder writes. Also copies the header-only libraries (FlatBuffers, xxHash) into
+# CACHE_DIR/include, so that a cross compiler never sees the host's /usr/include. Idempotent: a
+# second run does nothing (no network).
 #
-# Usage: scripts/fetch-wasm-sources.sh [CACHE_DIR]     (default: build/wasm-deps)
+# Usage: scripts/fetch-codec-sources.sh [CACHE_DIR]     (default: build/codec-sources)
 # Prints nothing but progress; the unpacked trees are CACHE_DIR/src/{zstd,meshoptimizer,draco}.
+# Used by scripts/build-wasm.sh and scripts/test-cross.sh (cmake/codec_sources.cmake compiles
+# the decoders).
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
-cache="${1:-$root/build/wasm-deps}"
-mkdir -p "$cache/src" "$cache/download"
+cache="${1:-$root/build/codec-sources}"
+mkdir -p "$cache/src" "$cache/download" "$cache/include"
+
+# Private copies of the header-only libraries, refreshed when the installed ones change.
+if [ ! -f "$cache/include/flatbuffers/flatbuffers.h" ] ||
+   [ /usr/include/flatbuffers/flatbuffers.h -nt "$cache/include/flatbuffers/flatbuffers.h" ]; then
+  rm -rf "$cache/include/flatbuffers"
+  cp -r /usr/include/flatbuffers "$cache/include/flatbuffers"
+fi
+if [ ! -f "$cache/include/xxhash.h" ] || [ /usr/include/xxhash.h -nt "$cache/include/xxhash.h" ]; then
+  cp /usr/include/xxhash.h "$cache/include/xxhash.h"
+fi
 
 # Source package -> installed binary package whose version must match (the native build links
 # the binary one; the WASM build must decode exactly what the native encoder writes).
 declare -A binary_of=([libzstd]=libzstd-dev [meshoptimizer]=libmeshoptimizer-dev [draco]=libdraco-dev)
 declare -A dir_of=([libzstd]=zstd [meshoptimizer]=meshoptimizer [draco]=draco)
 
+# The native architecture's package: with multiarch (:arm64 for scripts/test-cross.sh) installed,
+# an unqualified query prints one version per architecture.
 version_of() {
-  dpkg-query -W -f='${Version}' "$1" 2>/dev/null || true
+  dpkg-query -W -f='${Version}' "$1:$(dpkg --print-architecture)" 2>/dev/null || true
 }
 
 need_fetch=0
 for src in libzstd meshoptimizer draco; do
   v="$(version_of "${binary_of[$src]}")"
   if [ -z "$v" ]; then
-    echo "fetch-wasm-sources: ${binary_of[$src]} is not installed (scripts/install-deps.sh)" >&2
+    echo "fetch-codec-sources: ${binary_of[$src]} is not installed (scripts/install-deps.sh)" >&2
     exit 1
   fi
   stamp="$cache/src/${dir_of[$src]}/.cadinterp-version"
   if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$v" ]; then need_fetch=1; fi
 done
 if [ "$need_fetch" = 0 ]; then
-  echo "fetch-wasm-sources: sources up to date in $cache/src"
+  echo "fetch-codec-sources: sources up to date in $cache/src"
   exit 0
 fi
 
@@ -40,12 +57,12 @@ fi
 src_list=/etc/apt/sources.list.d/debian-src.sources
 if ! grep -rqs '^Types:.*deb-src' /etc/apt/sources.list.d/ /etc/apt/sources.list 2>/dev/null; then
   if [ ! -f /etc/apt/sources.list.d/debian.sources ]; then
-    echo "fetch-wasm-sources: no /etc/apt/sources.list.d/debian.sources to derive a deb-src entry from" >&2
+    echo "fetch-codec-sources: no /etc/apt/sources.list.d/debian.sources to derive a deb-src entry from" >&2
     exit 1
   fi
   sudo_cmd=()
   [ "$(id -u)" = 0 ] || sudo_cmd=(sudo)
-  echo "fetch-wasm-sources: adding $src_list"
+  echo "fetch-codec-sources: adding $src_list"
   sed 's/^Types:.*/Types: deb-src/' /etc/apt/sources.list.d/debian.sources |
     "${sudo_cmd[@]}" tee "$src_list" >/dev/null
   "${sudo_cmd[@]}" apt-get update -qq
@@ -68,7 +85,7 @@ for src in libzstd meshoptimizer draco; do
   upstream="${v#*:}"   # no epoch in file names
   dsc="$(ls "${src}_${upstream}.dsc" 2>/dev/null || true)"
   if [ -z "$dsc" ]; then
-    echo "fetch-wasm-sources: apt-get source --download-only $src=$v"
+    echo "fetch-codec-sources: apt-get source --download-only $src=$v"
     apt-get source -qq --download-only "$src=$v"
     dsc="${src}_${upstream}.dsc"
   fi
@@ -78,5 +95,5 @@ for src in libzstd meshoptimizer draco; do
   mv "$dir.tmp" "$dir"
   rm -f "$cache/src/"*.orig.tar.* "$cache/src/"*.debian.tar.*  # dpkg-source copies these next to the tree
   echo "$v" >"$dir/.cadinterp-version"
-  echo "fetch-wasm-sources: $src $v -> $dir"
+  echo "fetch-codec-sources: $src $v -> $dir"
 done
