@@ -54,8 +54,12 @@ def _outward_boundary(tets):
     return faces[counts[inverse.ravel()] == 1]
 
 
-def tet_mesh(solid, face_tags, size):
-    """Meshes `solid` with linear tets of target edge length `size` (mm). Returns (mesh, edge_nodes):
+def tet_mesh(solid, face_tags, size, divisions=1):
+    """Meshes `solid` with linear tets of target edge length `size` (mm); every B-rep edge gets
+    a multiple of `divisions` segments uniform in arc length, so its points at fractions
+    j / divisions are mesh vertices (the control points of naming.control_points with
+    divisions = 2^(levels+1): the mapper anchors only control points that are mesh vertices).
+    Returns (mesh, edge_nodes):
     mesh = dict(vertices #V x 3, tets #T x 4 (det > 0), triangles #F x 3 (outward), triangle_tags
     #F (face_tags[i] for a triangle on solid.Faces[i])); edge_nodes[i] = #N x 3 mesh vertex
     positions on solid.Edges[i], ends included. Raises RuntimeError when Gmsh fails."""
@@ -72,7 +76,14 @@ def tet_mesh(solid, face_tags, size):
         g.model.occ.importShapes(path)
     g.model.occ.synchronize()
     face_of = _match(g.model.getEntities(2), solid.Faces, "face")
-    edge_of = _match(g.model.getEntities(1), [e for e in solid.Edges if not e.Degenerated], "edge")
+    edges = [e for e in solid.Edges if not e.Degenerated]
+    edge_of = _match(g.model.getEntities(1), edges, "edge")
+    for _, ctag in g.model.getEntities(1):
+        # Lines and circular arcs only (the model's edges): arc length is uniform in the curve
+        # parameter, so Gmsh's uniform nodes fall on the parameter fractions of the ID scheme.
+        length = edges[edge_of[ctag]].Length
+        segments = divisions * max(1, int(np.ceil(length / (size * divisions))))
+        g.model.mesh.setTransfiniteCurve(ctag, segments + 1)
     g.model.mesh.generate(3)
 
     node_tags, coords, _ = g.model.mesh.getNodes()

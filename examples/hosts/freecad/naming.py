@@ -4,8 +4,9 @@ control-point IDs derived from them (README.md, "IDs"; include/cadinterp/cadinte
 FreeCAD 0.20 names sub-shapes by enumeration index (Face3, Edge7), which changes whenever the
 topology does, and its Part::Cut keeps no usable history. So a face is named by the FEATURE whose
 surface it lies on and the ROLE of that surface in the feature's own frame: "plate.ymax" is the
-+y face of the Plate box, "hole.wall" the Hole cylinder's lateral face. A role shared by several
-faces (a face split in pieces) gets "#k" in geometric order. Edges and vertices are named by the
++y face of the Plate box, "hole.wall" the Hole cylinder's lateral face; a face on the surfaces of
+several features (coplanar faces the fuse merged) has their roles joined, "plate.zmin+root.zmin".
+A role shared by several faces (a face split in pieces) gets "#k" in geometric order. Edges and vertices are named by the
 sorted roles of their adjacent faces ("E[hole.wall|plate.zmax]"), with "#k" in geometric order
 only where several share them. Enumeration order never enters a name.
 """
@@ -93,11 +94,10 @@ class Names:
         roles = [r for prefix, shape in primitives for r in _primitive_roles(prefix, shape)]
         self.face_roles = []
         for face in solid.Faces:
-            match = [role for role, prim in roles if _same_support(face, prim, tol)]
-            if len(set(match)) != 1:
-                raise ValueError("face at %s lies on %d primitive surfaces %s"
-                                 % (face.CenterOfMass, len(match), match))
-            self.face_roles.append(match[0])
+            match = sorted({role for role, prim in roles if _same_support(face, prim, tol)})
+            if not match:
+                raise ValueError("face at %s lies on no feature's surface" % face.CenterOfMass)
+            self.face_roles.append("+".join(match))
         faces = _numbered([(r, _key(f.CenterOfMass), i)
                            for i, (r, f) in enumerate(zip(self.face_roles, solid.Faces))])
         self.faces = [faces[i] for i in range(len(solid.Faces))]
