@@ -36,6 +36,12 @@ PACKAGES=(
   emscripten                        # the WebAssembly runtime (bindings/wasm); its codec sources
                                     # come from Debian source packages (fetch-wasm-sources.sh)
   chromium                          # the explorer's end-to-end tests (headless)
+  # The FreeCAD example host (examples/hosts/freecad, Python): the CAD kernel, the mesher, the
+  # FEM solver, and scipy for its accuracy measures.
+  freecad-python3
+  python3-gmsh
+  calculix-ccx
+  python3-scipy
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and

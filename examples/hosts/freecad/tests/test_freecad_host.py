@@ -4,6 +4,7 @@ Python package is importable."""
 import numpy as np
 import pytest
 
+import accuracy
 import bracket_model
 import calculix
 import freecad_host
@@ -127,12 +128,21 @@ def test_near_tangency_is_infeasible(host):
         host.regenerate(np.array([44.1, 4.0]))
 
 
-def test_end_to_end_build(host, tmp_path):
+def test_end_to_end_build(tmp_path):
+    """A 3 x 3 grid build (4 elements). The two elements at hole_x >= 46 hold the hole in the
+    thin plate at every sample, so they must be built and match FreeCAD between samples."""
     cadinterp = pytest.importorskip("cadinterp")
     coarse = freecad_host.BracketHost(mesh_size=4.0, levels=0)
-    report = cadinterp.build(coarse, str(tmp_path / "bracket.cadi"), max_samples=9, max_depth=1,
+    asset_path = str(tmp_path / "bracket.cadi")
+    report = cadinterp.build(coarse, asset_path, max_samples=9, max_depth=1,
                              store=str(tmp_path / "bracket.sqlite"))
-    asset = cadinterp.Asset(str(tmp_path / "bracket.cadi"))
-    out = asset.eval(THIN)
-    assert out is not None
-    assert report is not None
+    assert report.samples == 9 and report.elements == 4 and report.infeasible_points == 0
+    asset = cadinterp.Asset(asset_path)
+    assert [(f.name, f.unit) for f in asset.fields] == [("von_mises", "MPa"), ("displacement", "mm")]
+    assert {r.name: r.kind for r in asset.regions} == {"root": "fixed", "tip": "force"}
+    x = np.array([52.0, 3.5])
+    m = asset.eval(x)
+    true = coarse.regenerate(x)
+    truth = coarse.simulate(x, true)[0]["values"]
+    assert accuracy.relative_hausdorff(dict(vertices=m.vertices, triangles=m.triangles), true) < 1e-2
+    assert np.percentile(accuracy.field_errors(m.vertices, m.fields["von_mises"], true, truth), 99) < 0.1
