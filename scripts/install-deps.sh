@@ -62,6 +62,12 @@ PACKAGES=(
   libxxhash-dev:arm64
   libgtest-dev:arm64
   libgmock-dev:arm64
+  # The FreeCAD example host (examples/hosts/freecad, Python): the CAD kernel, the mesher, the
+  # FEM solver, and scipy for its accuracy measures.
+  freecad-python3
+  python3-gmsh
+  calculix-ccx
+  python3-scipy
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and

@@ -8,6 +8,7 @@
 #   wasm    the runtime in WebAssembly: its JS API under Node against the conformance cases
 #   cross   the runtime cross-compiled for Windows (run under Wine) and arm64 (under qemu-user)
 #   explorer `cadinterp explore` and its page in headless Chromium, against the native runtime
+#   freecad the FreeCAD example host's pytest tests (Python, FreeCAD, Gmsh, CalculiX)
 #   fuzz    the libFuzzer targets (open+eval, every C ABI call, every codec) side by side for 30 s
 #           (clang, ASan + UBSan), seeded from conformance and encoder outputs
 set -euo pipefail
@@ -67,6 +68,10 @@ scripts/test-cross.sh all
 
 step "explorer: the web page in headless Chromium against the native runtime"
 BUILD_DIR=build/release quiet_unless_failed build/explorer-test.log scripts/test-explorer.sh
+
+step "freecad: the FreeCAD host's pytest (FreeCAD, Gmsh, CalculiX; a small build via bindings/python)"
+PYTHONPATH=build/release/bindings/python /usr/bin/python3 -m pytest -q -p no:cacheprovider \
+  examples/hosts/freecad/tests
 
 step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
 scripts/fuzz.sh 30 2>&1 | tail -3
