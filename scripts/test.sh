@@ -70,8 +70,8 @@ step "explorer: the web page in headless Chromium against the native runtime"
 BUILD_DIR=build/release quiet_unless_failed build/explorer-test.log scripts/test-explorer.sh
 
 step "freecad: the FreeCAD host's pytest (FreeCAD, Gmsh, CalculiX; a small build via bindings/python)"
-PYTHONPATH=build/release/bindings/python /usr/bin/python3 -m pytest -q -p no:cacheprovider \
-  examples/hosts/freecad/tests
+CADINTERP_REQUIRE_ALL=1 PYTHONPATH=build/release/bindings/python /usr/bin/python3 -m pytest -q \
+  -p no:cacheprovider examples/hosts/freecad/tests
 
 step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
 scripts/fuzz.sh 30 2>&1 | tail -3

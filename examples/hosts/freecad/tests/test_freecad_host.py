@@ -1,6 +1,8 @@
 """Tests of the FreeCAD host (README.md, "Tests"): meshes, IDs across the topology change,
 references, CalculiX against beam theory, infeasible points, and a tiny build when the cadinterp
 Python package is importable."""
+import os
+
 import numpy as np
 import pytest
 
@@ -98,7 +100,13 @@ def test_paths_and_regions(host, x):
     assert np.allclose(v[f[np.isin(tags, regions["tip"][1])]][..., 0], bracket_model.LENGTH)
 
 
-@pytest.mark.skipif(calculix.ccx_path() is None, reason="CalculiX (ccx) not installed")
+# CADINTERP_REQUIRE_ALL=1 (set by scripts/test.sh) turns the skips below into failures, so that
+# CI cannot pass without CalculiX or the Python package.
+REQUIRE_ALL = os.environ.get("CADINTERP_REQUIRE_ALL") == "1"
+
+
+@pytest.mark.skipif(calculix.ccx_path() is None and not REQUIRE_ALL,
+                    reason="CalculiX (ccx) not installed")
 def test_ccx_against_beam_theory(host):
     mesh = host.regenerate(THIN)
     fields = {f["name"]: f for f in host.simulate(THIN, mesh)}
@@ -131,7 +139,10 @@ def test_near_tangency_is_infeasible(host):
 def test_end_to_end_build(tmp_path):
     """A 3 x 3 grid build (4 elements). The two elements at hole_x >= 46 hold the hole in the
     thin plate at every sample, so they must be built and match FreeCAD between samples."""
-    cadinterp = pytest.importorskip("cadinterp")
+    if REQUIRE_ALL:
+        import cadinterp
+    else:
+        cadinterp = pytest.importorskip("cadinterp")
     coarse = freecad_host.BracketHost(mesh_size=4.0, levels=0)
     asset_path = str(tmp_path / "bracket.cadi")
     report = cadinterp.build(coarse, asset_path, max_samples=9, max_depth=1,
