@@ -2,7 +2,9 @@
 adapters, on the box host's asset: every quantity has a closed form (box_host.py), so the tests
 compare against it, against central differences and against scipy.optimize."""
 import math
+import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -188,7 +190,7 @@ def test_expression_errors_name_token_and_column(box):
 
 
 @needs_optimizer
-def test_progress_callback_stops_and_raises(box):
+def test_progress_callback_stops_and_refuses_a_nested_call(box):
     p = area_problem(box)
     seen = []
     r = p.solve(progress=lambda s, i, x, f, v, o: seen.append((s, i, x.copy(), f)) or i >= 2)
@@ -200,14 +202,35 @@ def test_progress_callback_stops_and_raises(box):
     with pytest.raises(RuntimeError, match="in use"):
         p.solve(progress=nested)
 
-    def other_thread_runs(*args):  # Ipopt runs without the GIL: other threads get it
-        t = threading.Thread(target=lambda: seen.append("thread"))
-        t.start()
+
+
+@needs_optimizer
+def test_solve_releases_the_gil(cubic):
+    """Another Python thread runs while Ipopt does. No preemption (a switch interval of 10 s):
+    the spinning thread runs only when the main thread gives the GIL up, so its count grows
+    across solve() only if the solve releases the GIL."""
+    p, count, done = area_problem(cubic), [0], threading.Event()
+
+    def spin():
+        while not done.is_set():
+            count[0] += 1
+            time.sleep(0)  # gives the GIL back at once
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(10.0)
+    t = threading.Thread(target=spin)
+    t.start()
+    try:
+        while count[0] == 0:
+            time.sleep(0.001)
+        before = count[0]
+        p.solve(multistart=8)
+        after = count[0]
+    finally:
+        done.set()
         t.join()
-        return True
-    seen.clear()
-    p.solve(progress=other_thread_runs)
-    assert seen == ["thread"]
+        sys.setswitchinterval(old)
+    assert after > before
 
 
 @needs_optimizer
