@@ -18,7 +18,7 @@ declare -A binary_of=([libzstd]=libzstd-dev [meshoptimizer]=libmeshoptimizer-dev
 declare -A dir_of=([libzstd]=zstd [meshoptimizer]=meshoptimizer [draco]=draco)
 
 version_of() {
-  dpkg-query -W -f='${Version}' "$1" 2>/dev/null || true
+  dpkg-query -W -f='${Version}\n' "$1" 2>/dev/null | head -n1 || true
 }
 
 need_fetch=0
