@@ -42,6 +42,7 @@ PACKAGES=(
   python3-numpy
   python3-pytest                    # its tests (ctest -L python)
   python3-matplotlib                # examples/sweep.py and its test
+  python3-scipy                     # cadinterp.Problem's scipy adapters, tested (python_optimize)
   # The frozen runtime ABI (abi/): abidw and abidiff run by the abi_check ctests; without them
   # the checks skip, so CI must have them.
   abigail-tools

@@ -55,6 +55,8 @@ py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) 
 
 void init_runtime(py::module_& m);
 void init_builder(py::module_& m);
+/// cadinterp._cadinterp._Problem (optimize.cpp), in builds with libcadinterp_optimize only.
+void init_optimize(py::module_& m);
 
 }  // namespace cadinterp_py
 

@@ -1,6 +1,7 @@
 // cadinterp._cadinterp: the extension module behind the Python package `cadinterp` (see
-// bindings/python/README.md). It links libcadinterp and libcadinterp_builder and uses their
-// public C ABI only (src/DEPENDENCIES.md, "Consumers").
+// bindings/python/README.md). It links libcadinterp, libcadinterp_builder and, in builds that
+// have it, libcadinterp_optimize, and uses their public C ABI only (src/DEPENDENCIES.md,
+// "Consumers").
 #include "cadinterp/cadinterp_builder.h"
 #include "common.h"
 
@@ -99,4 +100,10 @@ PYBIND11_MODULE(_cadinterp, m) {
       py::arg("status"), "The C ABI's fixed text of a status code.");
   cadinterp_py::init_runtime(m);
   cadinterp_py::init_builder(m);
+#ifdef CADINTERP_PY_WITH_OPTIMIZE
+  cadinterp_py::init_optimize(m);
+  m.attr("has_optimizer") = true;
+#else
+  m.attr("has_optimizer") = false;  // cadinterp.Problem raises OptimizerUnavailableError
+#endif
 }

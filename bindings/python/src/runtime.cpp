@@ -190,6 +190,34 @@ std::shared_ptr<WorkspacePool> Asset::pool() const {
   return pool_;
 }
 
+int Asset::region_index(py::handle key) const {
+  if (key.is_none()) return -1;
+  const cadinterp_asset* a = pool()->asset();
+  const int n = cadinterp_region_count(a);
+  if (py::isinstance<py::str>(key)) {
+    const std::string name = key.cast<std::string>();
+    std::string known;
+    for (int i = 0; i < n; ++i) {
+      cadinterp_region_info r{};
+      if (cadinterp_region(a, i, &r) != CADINTERP_OK) continue;
+      if (name == r.name) return i;
+      known += (known.empty() ? "" : ", ") + std::string(r.name);
+    }
+    throw StatusError(CADINTERP_E_NOT_FOUND, "no region named '" + name + "' (the asset has: " +
+                                                 (known.empty() ? "no regions" : known) + ")");
+  }
+  if (py::isinstance<py::int_>(key) && !py::isinstance<py::bool_>(key)) {
+    const long i = key.cast<long>();
+    if (i < 0 || i >= n)
+      throw StatusError(CADINTERP_E_INVALID_ARGUMENT, "region index " + std::to_string(i) +
+                                                          " is out of range (the asset has " +
+                                                          std::to_string(n) + " regions)");
+    return static_cast<int>(i);
+  }
+  throw py::type_error("a region is named by its name (str), its index (int) or None, got " +
+                       py::str(py::type::of(key)).cast<std::string>());
+}
+
 int Asset::field_index(py::handle key) const {
   if (py::isinstance<py::str>(key)) {
     const std::string name = key.cast<std::string>();

@@ -105,12 +105,17 @@ class Asset {
   py::object grad(py::handle x, py::handle fields) const;
   py::array_t<double> vjp(py::handle x, py::handle dvertices, py::handle dfields) const;
   py::dict eval_properties(py::handle x, double density, py::handle direction, bool gradient) const;
+  py::object integral(py::handle x, py::handle field, int component, py::handle region,
+                      bool gradient) const;
 
   /// The pool, or ValueError once closed.
   std::shared_ptr<WorkspacePool> pool() const;
   FieldSelection select(py::handle fields) const;
   /// Index of the field named or numbered by `key`: NotFoundError, InvalidArgumentError.
   int field_index(py::handle key) const;
+  /// Index of the region named or numbered by `key` (None: -1, the solid): NotFoundError,
+  /// InvalidArgumentError.
+  int region_index(py::handle key) const;
   const std::vector<FieldMeta>& fields() const { return fields_; }
   /// Throws the status with `message`; for CADINTERP_E_OUTSIDE_DOMAIN, names the first value
   /// of x (K values) outside its range.

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `import cadinterp` from a fresh environment against a staged install (DESTDIR), not the build
 # tree: the package lands in the site-packages Debian's python3 reads for the prefix, and its
-# module finds libcadinterp and libcadinterp_builder through its $ORIGIN-relative RUNPATH.
+# module finds libcadinterp, libcadinterp_builder and (in builds with the optimizer)
+# libcadinterp_optimize through its $ORIGIN-relative RUNPATH.
 #   staged_install.sh BUILD_DIR PREFIX SITE_DIR LIBDIR PYTHON ASSET
 # Exits 77 (ctest: skipped, with the reason printed) when `cmake --install` installs no
 # libcadinterp: the libraries' install rules belong to the project's install step.
@@ -33,6 +34,9 @@ pkg, asset = sys.argv[1], sys.argv[2]
 assert cadinterp.__file__.startswith(pkg), cadinterp.__file__
 with cadinterp.Asset(asset) as a:
     m = a.eval(a.bounds.mean(axis=1))
+    if cadinterp._cadinterp.has_optimizer:  # loads libcadinterp_optimize (and Ipopt)
+        r = cadinterp.Problem(a).minimize("volume").solve(max_iterations=3)
+        print(f"Problem.solve: {r.status}, objective {r.objective:.6g} at {r.x}")
 print(f"import cadinterp {cadinterp.__version__} from {cadinterp.__file__}: {m}")
 PY
 rm -rf "$stage"  # the whole project's install: no need to keep it

@@ -15,7 +15,7 @@ set(_env
   "CADINTERP_CASES=${PROJECT_SOURCE_DIR}/conformance/cases"
   "CADINTERP_CONFORMANCE_RUNNER=$<TARGET_FILE:cadinterp-conformance>"
   "MPLBACKEND=Agg")
-foreach(_suite conformance runtime errors builder example)
+foreach(_suite conformance runtime errors builder example optimize)
   add_test(NAME python_${_suite}
            COMMAND "${CADINTERP_PYTHON}" -m pytest -q -p no:cacheprovider
                    ${CMAKE_CURRENT_SOURCE_DIR}/tests/test_${_suite}.py
