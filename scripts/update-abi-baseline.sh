@@ -9,7 +9,9 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$root"
 cmake --preset release >/dev/null
 cmake --build --preset release --target cadinterp
-lib="$(ls build/release/src/runtime/libcadinterp.so.[0-9]* | head -n 1)"
+# The library the build just linked (the namelink's target), never a stale file of an older
+# ABI version left in the build tree.
+lib="$(readlink -f build/release/src/runtime/libcadinterp.so)"
 bash abi/abi.sh dump "$lib" include/cadinterp abi/libcadinterp.abi
 echo "wrote abi/libcadinterp.abi from $lib ($(grep -c '<elf-symbol ' abi/libcadinterp.abi) symbols)"
 git --no-pager diff --stat -- abi/libcadinterp.abi || true
