@@ -161,6 +161,17 @@ void blend(cadinterp_workspace* ws, const double* weight, std::size_t offset, st
   blend_arrays_multi(ws->arrays.data(), ws->weights.data(), static_cast<int>(terms), n, 1, &out);
 }
 
+// ws->positions = every vertex position of the element at weights psi (Eq. 3); false when the
+// blend overflowed single precision. The O(terms) bound decides first, so the pass over every
+// output runs only for blends near the float range.
+bool blend_positions(cadinterp_workspace* ws, const core::BasisWeights& w) {
+  const std::size_t n = ws->element->mesh.vertex_count * 3;
+  ws->positions.resize(n);
+  blend(ws, w.psi, 0, n, true, ws->positions.data());
+  return positions_blend_bounded(*ws->element, ws->weights.data(), w.count) ||
+         finite_floats(ws->positions.data(), n);
+}
+
 // One term of a subset blend over rows [r0, r1): out rows (contiguous) = (FIRST ? 0 : out) +
 // w * the rows ids[r] of a, C floats each (C = 0: c at run time). Restrict pointers and a
 // compile-time C let the compiler keep w in a register and unroll the row.
@@ -266,11 +277,7 @@ cadinterp_status evaluate_mesh(cadinterp_workspace* ws, const double* x, const i
   const DecodedElement& d = ws->element->mesh;
   const Topology& topo = *d.topology;
   const std::size_t nv = d.vertex_count, nt = topo.tets.size() / 4;
-  ws->positions.resize(nv * 3);
-  blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
-  if (!positions_blend_bounded(*ws->element, ws->weights.data(), w.count) &&
-      !finite_floats(ws->positions.data(), nv * 3))
-    return overflow(ws);
+  if (!blend_positions(ws, w)) return overflow(ws);
   ws->field_values.resize(static_cast<std::size_t>(field_count));
   ws->field_ptrs.resize(static_cast<std::size_t>(field_count));
   for (int i = 0; i < field_count; ++i) {
@@ -415,9 +422,7 @@ cadinterp_status evaluate_properties(cadinterp_workspace* ws, const double* x, d
   const DecodedElement& d = ws->element->mesh;
   const Topology& topo = *d.topology;
   const std::size_t nv = d.vertex_count;
-  ws->positions.resize(nv * 3);
-  blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
-  if (!finite_floats(ws->positions.data(), nv * 3)) return overflow(ws);
+  if (!blend_positions(ws, w)) return overflow(ws);
   const TetMeshView mesh{ws->positions.data(),  nv,
                          topo.tets.data(),      topo.tets.size() / 4,
                          topo.triangles.data(), topo.triangles.size() / 3};
@@ -624,9 +629,7 @@ cadinterp_status evaluate_integral(cadinterp_workspace* ws, const double* x, int
   const DecodedElement& d = ws->element->mesh;
   const Topology& topo = *d.topology;
   const std::size_t nv = d.vertex_count, nt = topo.tets.size() / 4;
-  ws->positions.resize(nv * 3);
-  blend(ws, w.psi, 0, nv * 3, true, ws->positions.data());
-  if (!finite_floats(ws->positions.data(), nv * 3)) return overflow(ws);
+  if (!blend_positions(ws, w)) return overflow(ws);
   Integrand f;
   std::size_t n = 0, off = 0;
   if (nf) {
