@@ -2,7 +2,6 @@
 // with progress on stderr and a clean stop on Ctrl-C, and prints the build's summary. CMake
 // compiles this file only when libcadinterp_builder is part of the build;
 // cli_build_unavailable.cpp stands in otherwise.
-#include <dlfcn.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -17,6 +16,7 @@
 #include "cli_args.h"
 #include "cli_commands.h"
 #include "cli_common.h"
+#include "host_library.h"
 
 #ifdef CADINTERP_CLI_HAVE_ANALYTIC
 #include "analytic_host.h"
@@ -82,62 +82,35 @@ extern "C" int on_progress(void* user, const cadinterp_progress* p) {
   return g_cancel ? 1 : 0;
 }
 
+// A built-in host by name, or a host library by path (host_library.h).
 struct LoadedHost {
-  void* library = nullptr;
+  tools::HostLibrary library;
   const cadinterp_host* host = nullptr;
-  std::string source;
-  LoadedHost() = default;
-  LoadedHost(const LoadedHost&) = delete;
-  LoadedHost& operator=(const LoadedHost&) = delete;
-  ~LoadedHost() {
-    if (library) dlclose(library);
-  }
+  std::string source;  // for messages: the library's path or "built-in ... host"
 };
-
-bool looks_like_path(const std::string& s) {
-  return s.find('/') != std::string::npos || s.find(".so") != std::string::npos;
-}
 
 void load_host(const std::string& spec, const std::string& model, const std::string& options,
                LoadedHost& out) {
-  cadinterp_host_entry_fn entry = nullptr;
-  if (looks_like_path(spec)) {
-    out.library = dlopen(spec.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!out.library) {
-      const char* e = dlerror();
-      throw RuntimeFailure(describe(
-          CADINTERP_E_IO, "cannot load host library " + spec + ": " + (e ? e : "unknown error")));
+  try {
+    if (tools::looks_like_library_path(spec)) {
+      out.host = out.library.load(spec, model, options);
+      out.source = spec;
+      return;
     }
-    // POSIX: a function pointer obtained from dlsym is usable as such.
-    void* sym = dlsym(out.library, CADINTERP_HOST_ENTRY_NAME);
-    if (!sym)
-      throw RuntimeFailure(
-          describe(CADINTERP_E_INVALID_ARGUMENT, spec + " exports no " CADINTERP_HOST_ENTRY_NAME
-                                                        " function (see cadinterp_host_entry_fn)"));
-    std::memcpy(&entry, &sym, sizeof entry);
-    out.source = spec;
-  } else {
 #ifdef CADINTERP_CLI_HAVE_ANALYTIC
     if (spec == "analytic") {
-      entry = &cadinterp_host_entry;
-      out.source = "built-in analytic host";
+      out.host =
+          tools::host_from_entry(&cadinterp_host_entry, "built-in analytic host", model, options);
+      return;
     }
 #endif
-    if (!entry) {
-      const std::string hosts = builtin_hosts();
-      throw UsageError("unknown host '" + spec +
-                       "': give the path of a host library (.so) or a built-in host (" +
-                       (hosts.empty() ? "none in this build" : hosts) + ")");
-    }
+  } catch (const tools::HostLoadError& e) {
+    throw RuntimeFailure(describe(e.status, e.what()));
   }
-  const char* error = nullptr;
-  out.host = entry(model.empty() ? nullptr : model.c_str(),
-                   options.empty() ? nullptr : options.c_str(), &error);
-  if (!out.host)
-    throw RuntimeFailure(
-        describe(CADINTERP_E_INVALID_ARGUMENT, "the host (" + out.source + ") refused model '" +
-                                                   model + "' with options '" + options +
-                                                   "': " + (error ? error : "no message")));
+  const std::string hosts = builtin_hosts();
+  throw UsageError("unknown host '" + spec +
+                   "': give the path of a host library (.so) or a built-in host (" +
+                   (hosts.empty() ? "none in this build" : hosts) + ")");
 }
 
 struct BuilderDestroyer {

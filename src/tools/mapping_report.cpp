@@ -14,13 +14,12 @@
 //          parameter across the box (others at the centre), to watch for flicker or jumps.
 //
 // One file past 800 lines: one measurement program whose subcommands share the host loading.
-#include <dlfcn.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -43,6 +42,7 @@
 #include "mesh/host_call.h"
 #include "mesh/surface_distance.h"
 #include "tools/cli_args.h"
+#include "tools/host_library.h"
 #include "tools/mesh_export.h"
 
 namespace {
@@ -57,27 +57,12 @@ const cadinterp_host* open_host(const std::string& model, const std::string& opt
   return h;
 }
 
-// A host library's entry (cadinterp_host_entry_fn), loaded with dlopen as `cadinterp build
-// --host` does. The library stays loaded for the life of the process: the host it returns
-// points into it.
+// A host library's host (host_library.h). The library stays loaded for the life of the process:
+// the host it returns points into it.
 const cadinterp_host* open_library_host(const std::string& library, const std::string& model,
                                         const std::string& options) {
-  void* lib = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!lib) {
-    const char* e = dlerror();
-    throw std::runtime_error("cannot load host library " + library + ": " +
-                             (e ? e : "unknown error"));
-  }
-  void* sym = dlsym(lib, CADINTERP_HOST_ENTRY_NAME);
-  if (!sym)
-    throw std::runtime_error(library + " exports no " CADINTERP_HOST_ENTRY_NAME " function");
-  cadinterp_host_entry_fn entry = nullptr;
-  // POSIX: a function pointer obtained from dlsym is usable as such.
-  std::memcpy(&entry, &sym, sizeof entry);
-  const char* err = nullptr;
-  const cadinterp_host* h = entry(model.c_str(), options.c_str(), &err);
-  if (!h) throw std::runtime_error(model + ": " + (err ? err : "the host refused the model"));
-  return h;
+  static std::deque<tools::HostLibrary> libraries;
+  return libraries.emplace_back().load(library, model, options);
 }
 
 // How two samples' B-rep topologies differ: 'T' when their faces differ (the set of triangle
