@@ -299,6 +299,12 @@ typedef struct cadinterp_build_options {
    * term maps and the departure falls, adding at most half the canonical's vertex count. The
    * asset then stores that element on the refined mesh (counted in cadinterp_build_stages). */
   int canonical_refinement;
+  /** Nonzero: cadinterp_builder_run calls the host's callbacks only on the thread that called
+   * it, one evaluation at a time (`threads` is then ignored), for kernels that must be called
+   * from the thread that created them (many CAD kernels, COM single-threaded apartments). The
+   * builder's own work runs on its threads meanwhile. 0 (default): worker threads. The asset's
+   * bytes are the same either way. */
+  int host_on_calling_thread;
 } cadinterp_build_options;
 
 /** Fills `options` with the defaults above (struct_size included; other bytes zero). NULL is a
@@ -431,6 +437,195 @@ CADINTERP_API cadinterp_status cadinterp_builder_infeasible_reason(const cadinte
  * run; "builder is NULL" for NULL (never NULL). Builder-owned, valid until the next run or
  * destroy. */
 CADINTERP_API const char* cadinterp_builder_error(const cadinterp_builder* builder);
+
+/* ---- Build sessions: the host drives the loop -----------------------------------------------
+ * A session is a build turned inside out. Instead of calling the host's callbacks, it says which
+ * parameter points it needs next (requests) and accepts their samples in any order, from any
+ * thread. The host then drives the loop: on its main thread, from an event loop with
+ * asynchronous requests to a remote kernel, from worker processes, or from a cluster scheduler.
+ * cadinterp_builder_run is itself a driver over a session (threads calling the callbacks), and a
+ * session writes the same asset bytes as cadinterp_builder_run for the same host and options.
+ *
+ *   cadinterp_build_session* s;
+ *   cadinterp_build_session_create(builder, &s);
+ *   for (;;) {
+ *     cadinterp_build_request r[16];
+ *     size_t n;
+ *     int done;
+ *     cadinterp_build_session_next_requests(s, r, 16, -1, &n, &done);
+ *     if (done) break;
+ *     for (size_t i = 0; i < n; ++i) {
+ *       cadinterp_sample* out;
+ *       cadinterp_build_session_sample(s, r[i].id, &out);
+ *       cadinterp_status st = my_regenerate(my_user, r[i].x, out);   // + references, simulate
+ *       cadinterp_build_session_submit(s, r[i].id, st);
+ *     }
+ *   }
+ *   cadinterp_build_session_finish(s, "model.cadi");      // then cadinterp_builder_report(...)
+ *   cadinterp_build_session_destroy(s);
+ *
+ * The session belongs to the builder it was created from: it uses the builder's copied host
+ * (name, identity and parameters; its callbacks are never called by a session and may be NULL
+ * when only sessions are used), its options and sample store (points already in the store are
+ * read, never requested), and its report, stages, reasons and error describe the session's run
+ * once it ends (finished, failed or destroyed). While a session exists, the builder accepts no
+ * cadinterp_builder_run and no second session (CADINTERP_E_INVALID_ARGUMENT).
+ *
+ * Progress callback: called on the threads that call cadinterp_build_session_submit (after each
+ * accepted sample) and cadinterp_build_session_next_requests; a nonzero return cancels the
+ * session as cadinterp_build_session_cancel does. */
+
+/** A build in progress driven by the caller (opaque). */
+typedef struct cadinterp_build_session cadinterp_build_session;
+
+/** What a request asks for. */
+typedef enum cadinterp_request_kind {
+  /** The host's sample at x: regenerate, references, then simulate if the host has fields, all
+   * written into the request's cadinterp_sample (cadinterp_build_session_sample). */
+  CADINTERP_REQUEST_SAMPLE = 1,
+  /** With simulate_mapped only: simulate at x on `mesh` (another sample's mesh mapped to x's
+   * shape, paper §6), writing fields only; the request's cadinterp_sample carries that mesh. */
+  CADINTERP_REQUEST_SIMULATE = 2
+} cadinterp_request_kind;
+
+/** One request. Fixed layout (not grown by addition: a new kind of request comes with a new
+ * function). The pointers are session-owned and stay valid until the request is submitted, the
+ * session is cancelled, or it is destroyed, whichever comes first. */
+typedef struct cadinterp_build_request {
+  uint64_t id;                     /**< nonzero, unique within the session */
+  int kind;                        /**< a cadinterp_request_kind */
+  int parameter_count;             /**< K */
+  const double* x;                 /**< K values inside the parameter box */
+  const cadinterp_host_mesh* mesh; /**< CADINTERP_REQUEST_SIMULATE: the mesh; else NULL */
+} cadinterp_build_request;
+
+/**
+ * Starts a session on `builder` (see above). The caller owns it and ends it with
+ * cadinterp_build_session_destroy, which the builder must outlive. Opens the sample store and
+ * starts the refinement at once; the first requests are then available.
+ * @param[out] out the session; set to NULL on every failure (when out is not NULL).
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT (NULL builder or out, or a session or run
+ *         already active on the builder); CADINTERP_E_IO or CADINTERP_E_STORE_MISMATCH (the
+ *         store); CADINTERP_E_OUT_OF_MEMORY; CADINTERP_E_INTERNAL. The message is available from
+ *         cadinterp_builder_error(builder).
+ * Thread-safety: not concurrently with another call on the same builder.
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_create(cadinterp_builder* builder,
+                                                              cadinterp_build_session** out);
+
+/**
+ * Hands out up to `capacity` requests that were not handed out before (each request exactly
+ * once). While there is none to hand out and the build is not done, waits up to timeout_ms
+ * milliseconds (0: does not wait; -1: until a request or the end comes) for the refinement to
+ * produce some: it produces the next wave only after every request of the current one is
+ * submitted, so a driver that answers on the same thread must submit what it was handed before
+ * it waits again.
+ * @param[out] requests capacity requests (may be NULL when capacity is 0)
+ * @param[out] count    the number written, 0..capacity
+ * @param[out] done     nonzero when the session will hand out no more requests: the build is
+ *                      finished (call cadinterp_build_session_finish), failed or cancelled
+ *                      (finish then returns why)
+ * @return CADINTERP_OK (also when nothing was handed out); CADINTERP_E_INVALID_ARGUMENT for a
+ *         NULL session, count or done, or NULL requests with a nonzero capacity (outputs
+ *         untouched).
+ * Thread-safety: may be called from any thread, concurrently with the other session functions
+ * except destroy.
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_next_requests(
+    cadinterp_build_session* session, cadinterp_build_request* requests, size_t capacity,
+    int timeout_ms, size_t* count, int* done);
+
+/**
+ * The builder-owned sample a request's answer is written into, with the cadinterp_sample_*
+ * functions, exactly as the host's callbacks write (for CADINTERP_REQUEST_SIMULATE its mesh is
+ * already set). Valid until the request is submitted or the session destroyed; one thread at a
+ * time per request.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL argument (outputs untouched);
+ *         CADINTERP_E_NOT_FOUND when `id` is not a request handed out and not yet submitted.
+ * Thread-safety: any thread; different requests concurrently.
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_sample(cadinterp_build_session* session,
+                                                              uint64_t id, cadinterp_sample** out);
+
+/**
+ * Answers request `id` with its sample as written: host_status CADINTERP_OK hands it to the
+ * build, which validates it (an invalid mesh makes the point infeasible, with the builder's
+ * message); any other status makes the point infeasible, with the message set by
+ * cadinterp_sample_set_message or else the status's name. Answers may come in any order.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL session; CADINTERP_E_NOT_FOUND
+ *         when `id` is not a request handed out and not yet submitted; CADINTERP_E_CANCELLED
+ *         after the session was cancelled or failed (the answer is dropped);
+ *         CADINTERP_E_IO when the sample store cannot be written (the session then fails);
+ *         CADINTERP_E_OUT_OF_MEMORY.
+ * Thread-safety: any thread; different requests concurrently.
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_submit(cadinterp_build_session* session,
+                                                              uint64_t id,
+                                                              cadinterp_status host_status);
+
+/**
+ * Answers request `id` with a sample computed elsewhere (another process, rank or machine):
+ * the bytes written there by cadinterp_host_evaluate_serialized (CADINTERP_REQUEST_SAMPLE) or
+ * cadinterp_host_simulate_serialized (CADINTERP_REQUEST_SIMULATE) from the same builder
+ * version. Copied. Same rules and returns as cadinterp_build_session_submit, plus
+ * CADINTERP_E_INVALID_ARGUMENT for NULL bytes or bytes that are not such a sample (the request
+ * stays open and may be answered again).
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_submit_serialized(
+    cadinterp_build_session* session, uint64_t id, const void* bytes, size_t size);
+
+/**
+ * Cancels the session: no new request is handed out, answers are dropped, and finish returns
+ * CADINTERP_E_CANCELLED. The samples answered so far stay in the store, so a new session on a
+ * builder with the same store resumes from them. Idempotent.
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for NULL.
+ * Thread-safety: any thread, at any time before destroy.
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_cancel(cadinterp_build_session* session);
+
+/**
+ * Waits until the session is done (see next_requests), then writes the asset to output_path as
+ * cadinterp_builder_run does (temporary name, renamed). The builder's report, stages, reasons
+ * and error then describe the run.
+ * @return the statuses of cadinterp_builder_run (CADINTERP_E_CANCELLED after a cancel);
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL session or path, or a second finish.
+ * Thread-safety: one thread; it blocks while requests are outstanding, so they must be answered
+ * by other threads, or before finish is called.
+ */
+CADINTERP_API cadinterp_status cadinterp_build_session_finish(cadinterp_build_session* session,
+                                                              const char* output_path);
+
+/** Ends a session (cancelling it if it is not finished) and frees it; the samples answered so
+ * far stay in the store. Requests and samples it handed out become invalid. NULL is a no-op.
+ * Not concurrently with another call on the session. */
+CADINTERP_API void cadinterp_build_session_destroy(cadinterp_build_session* session);
+
+/* ---- Evaluating a host elsewhere -------------------------------------------------------------
+ * What a worker process or rank runs for a session driver: the host's callbacks at x, guarded
+ * and validated exactly as the builder's own threads call them, and the result as bytes for
+ * cadinterp_build_session_submit_serialized. A failing host gives bytes too (an infeasible
+ * sample with its message): only a crash of the host itself is not covered. */
+
+/**
+ * Runs regenerate, references and simulate of `host` at x (K doubles) and serializes the
+ * sample. The caller owns *bytes and frees it with cadinterp_bytes_free.
+ * @return CADINTERP_OK (also when the host failed at x: the bytes say so);
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument or an inconsistent host (as
+ *         cadinterp_builder_create would refuse it); CADINTERP_E_OUT_OF_MEMORY.
+ * Thread-safety: concurrently for different x when the host is thread_safe; otherwise calls
+ * with the same host must not overlap.
+ */
+CADINTERP_API cadinterp_status cadinterp_host_evaluate_serialized(const cadinterp_host* host,
+                                                                  const double* x, void** bytes,
+                                                                  size_t* size);
+/** As cadinterp_host_evaluate_serialized for a CADINTERP_REQUEST_SIMULATE request: the host's
+ * simulate at x on `mesh`. Also CADINTERP_E_INVALID_ARGUMENT for a NULL mesh. */
+CADINTERP_API cadinterp_status cadinterp_host_simulate_serialized(const cadinterp_host* host,
+                                                                  const double* x,
+                                                                  const cadinterp_host_mesh* mesh,
+                                                                  void** bytes, size_t* size);
+/** Frees bytes returned by the builder (cadinterp_host_*_serialized); NULL is a no-op. */
+CADINTERP_API void cadinterp_bytes_free(void* bytes);
 
 #ifdef __cplusplus
 }

@@ -4,6 +4,7 @@
 // untouched.
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <new>
@@ -184,6 +185,55 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
   return CADINTERP_OK;
   CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
+
+// Worker side of a session driver: the same guarded, validated call as the builder's own
+// threads make (mesh::Host), its Sample serialized. A per-call Host copy is cheap (strings and
+// the parameter box) and keeps the function free of state.
+namespace {
+cadinterp_status serialized_result(const Sample& sample, void** bytes, size_t* size) {
+  const std::vector<std::uint8_t> b = cadinterp::mesh::serialize(sample);
+  void* out = std::malloc(b.empty() ? 1 : b.size());
+  if (!out) return CADINTERP_E_OUT_OF_MEMORY;
+  if (!b.empty()) std::memcpy(out, b.data(), b.size());
+  *bytes = out;
+  *size = b.size();
+  return CADINTERP_OK;
+}
+}  // namespace
+
+CADINTERP_API cadinterp_status cadinterp_host_evaluate_serialized(const cadinterp_host* host,
+                                                                  const double* x, void** bytes,
+                                                                  size_t* size) {
+  CADINTERP_CATCH_BEGIN
+  if (!host || !x || !bytes || !size) return CADINTERP_E_INVALID_ARGUMENT;
+  const cadinterp::mesh::Host h(*host);
+  return serialized_result(h.evaluate(x), bytes, size);
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
+}
+
+CADINTERP_API cadinterp_status cadinterp_host_simulate_serialized(const cadinterp_host* host,
+                                                                  const double* x,
+                                                                  const cadinterp_host_mesh* mesh,
+                                                                  void** bytes, size_t* size) {
+  CADINTERP_CATCH_BEGIN
+  if (!host || !x || !mesh || !bytes || !size) return CADINTERP_E_INVALID_ARGUMENT;
+  if ((mesh->vertex_count && !mesh->vertices) || (mesh->tet_count && !mesh->tets) ||
+      (mesh->triangle_count && (!mesh->triangles || !mesh->triangle_tags)) ||
+      mesh->vertex_count >= kMaxCount || mesh->tet_count >= kMaxCount ||
+      mesh->triangle_count >= kMaxCount)
+    return CADINTERP_E_INVALID_ARGUMENT;
+  const cadinterp::mesh::Host h(*host);
+  Sample m;
+  m.feasible = true;
+  m.vertices.assign(mesh->vertices, mesh->vertices + 3 * mesh->vertex_count);
+  m.tets.assign(mesh->tets, mesh->tets + 4 * mesh->tet_count);
+  m.triangles.assign(mesh->triangles, mesh->triangles + 3 * mesh->triangle_count);
+  m.triangle_tags.assign(mesh->triangle_tags, mesh->triangle_tags + mesh->triangle_count);
+  return serialized_result(h.simulate(x, m), bytes, size);
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
+}
+
+CADINTERP_API void cadinterp_bytes_free(void* bytes) { std::free(bytes); }
 
 CADINTERP_API const char* cadinterp_builder_version(void) {
 #define CADINTERP_BUILDER_STR2(x) #x
