@@ -57,7 +57,7 @@ ctest --preset asan -j "$JOBS"
 
 step "tsan: ThreadSanitizer, concurrency tests"
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan -j "$JOBS"
+cmake --build --preset tsan -j "$JOBS" --target cadinterp_concurrency_tests
 ctest --preset tsan -j "$JOBS" -L concurrency
 
 step "wasm: build the WebAssembly runtime, run its Node tests"
