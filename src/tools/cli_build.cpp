@@ -343,14 +343,15 @@ cadinterp_status run_mpi(tools::mpi::World& world, cadinterp_builder* builder,
     // The other ranks may be dead already: finalizing would wait for them.
     world.abandon();
     std::fprintf(stderr,
-                 "mpi: stopped by %s (mpirun ends the whole job when a rank dies); %d samples "
+                 "mpi: stopped by %s (mpirun ends the whole job when a rank dies); %d answers "
                  "from the ranks were accepted in this run\n",
                  result->stop_signal == SIGTERM ? "SIGTERM" : "SIGINT", result->samples_received);
   }
   return result->status;
 }
 
-/// rank 0's load: CPU time of every thread of rank 0 (builder, store, MPI) per sample received,
+/// rank 0's load: CPU time of every thread of rank 0 (builder, store, MPI) per answer received
+/// (a sample, or with --simulate-mapped also a simulation on a mapped mesh),
 /// and its share of the wall time (busy = overhead x throughput, src/tools/README.md).
 void print_mpi_summary(const tools::mpi::DriveResult& r) {
   std::printf(

@@ -23,7 +23,7 @@ namespace {
 // Message tags. Rank 0 keeps at most one request in flight per rank, so an answer's request is
 // known from its source: answers carry the sample's bytes alone (probe for the size, receive).
 enum Tag : int {
-  kHello = 1,       // rank -> 0: "name\nidentity\nK" of the host it loaded
+  kHello = 1,       // rank -> 0: name, identity and K of the host it loaded
   kLoadFailed = 2,  // rank -> 0: why it could not load the host
   kSample = 3,      // 0 -> rank: K doubles x (CADINTERP_REQUEST_SAMPLE)
   kSimulate = 4,    // 0 -> rank: x and a mesh (CADINTERP_REQUEST_SIMULATE), see pack_simulate
@@ -90,8 +90,8 @@ void send_text(const std::string& text, int to, int tag) {
 }
 
 std::string host_description(const cadinterp_host* host) {
-  return std::string(host->name ? host->name : "") + "\n" + (host->identity ? host->identity : "") +
-         "\n" + std::to_string(host->parameter_count);
+  return std::string(host->name ? host->name : "") + " '" + (host->identity ? host->identity : "") +
+         "' (" + std::to_string(host->parameter_count) + " parameters)";
 }
 
 // A CADINTERP_REQUEST_SIMULATE request as one message: three uint64 counts (vertices, tets,
@@ -301,8 +301,8 @@ void check_ranks(const World& world, const cadinterp_host* host) {
     if (status.MPI_TAG == kLoadFailed) {
       problems += "\n  rank " + std::to_string(rank) + ": " + text;
     } else if (status.MPI_TAG != kHello || text != mine) {
-      problems += "\n  rank " + std::to_string(rank) + " loaded another host (" + text +
-                  "; rank 0: " + mine + ")";
+      problems +=
+          "\n  rank " + std::to_string(rank) + " loaded " + text + "\n  rank 0 loaded " + mine;
     }
   }
   if (!problems.empty())
