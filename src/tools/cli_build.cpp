@@ -162,10 +162,11 @@ void declare_options(ArgParser& p, BuildArgs& a) {
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
   // --mpi: the MPI block below.
-  p.flag("mpi", 0,
-         "distributed build under mpirun (at least 2 ranks): rank 0 runs\nthe builder and the "
-         "store, ranks 1.. run the host; each rank\nloads --host itself (src/tools/README.md)",
-         &a.mpi);
+  p.flag(
+      "mpi", 0,
+      "distributed build under mpirun (at least 2 ranks): rank 0 runs\nthe builder and the "
+      "store, ranks 1.. run the host; each rank\nloads --host itself (docs/distributed-builds.md)",
+      &a.mpi);
   p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
            "(model, options, &error)\nreturns the host (cadinterp_host_entry_fn in "
            "cadinterp_builder.h).\n"
@@ -345,21 +346,21 @@ cadinterp_status run_mpi(tools::mpi::World& world, cadinterp_builder* builder,
     std::fprintf(stderr,
                  "mpi: stopped by %s (mpirun ends the whole job when a rank dies); %d answers "
                  "from the ranks were accepted in this run\n",
-                 result->stop_signal == SIGTERM ? "SIGTERM" : "SIGINT", result->samples_received);
+                 result->stop_signal == SIGTERM ? "SIGTERM" : "SIGINT", result->answers_received);
   }
   return result->status;
 }
 
 /// rank 0's load: CPU time of every thread of rank 0 (builder, store, MPI) per answer received
-/// (a sample, or with --simulate-mapped also a simulation on a mapped mesh),
-/// and its share of the wall time (busy = overhead x throughput, src/tools/README.md).
+/// (a sample, or with --simulate-mapped also a simulation on a mapped mesh), and its share of the
+/// wall time (busy = overhead x throughput, docs/distributed-builds.md).
 void print_mpi_summary(const tools::mpi::DriveResult& r) {
   std::printf(
-      "  mpi                %d host ranks, %d samples from them, %.2f samples/s; rank 0 "
-      "CPU %.3f s (%.2f ms per sample, %.1f %% busy)\n",
-      r.worker_ranks, r.samples_received,
-      r.wall_seconds > 0 ? r.samples_received / r.wall_seconds : 0.0, r.cpu_seconds,
-      r.samples_received > 0 ? 1e3 * r.cpu_seconds / r.samples_received : 0.0,
+      "  mpi                %d host ranks, %d answers from them, %.2f answers/s; rank 0 "
+      "CPU %.3f s (%.2f ms per answer, %.1f %% busy)\n",
+      r.worker_ranks, r.answers_received,
+      r.wall_seconds > 0 ? r.answers_received / r.wall_seconds : 0.0, r.cpu_seconds,
+      r.answers_received > 0 ? 1e3 * r.cpu_seconds / r.answers_received : 0.0,
       r.wall_seconds > 0 ? 100 * r.cpu_seconds / r.wall_seconds : 0.0);
 }
 #endif

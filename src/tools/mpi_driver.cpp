@@ -156,7 +156,7 @@ class Dispatcher {
   /// Drives the session until it is done and every rank's answer is in, or *stop is set (its
   /// value is returned; 0 otherwise).
   int run(const volatile std::sig_atomic_t* stop);
-  int samples_received() const { return received_; }
+  int answers_received() const { return received_; }
 
  private:
   bool receive_answers();
@@ -333,8 +333,13 @@ void answer(const cadinterp_host* host, int tag, const std::vector<std::uint64_t
   if (s == CADINTERP_OK && n <= static_cast<std::size_t>(INT_MAX)) {
     send_bytes(bytes, n, 0, kResult);
   } else {
-    if (s == CADINTERP_OK) s = CADINTERP_E_OUT_OF_MEMORY;
-    message = message + ": " + cadinterp_status_string(s);
+    if (s == CADINTERP_OK) {
+      s = CADINTERP_E_OUT_OF_MEMORY;
+      message = "the serialized sample (" + std::to_string(n) +
+                " bytes) is over the 2 GiB one MPI message carries";
+    } else {
+      message = message + ": " + cadinterp_status_string(s);
+    }
     std::string payload(sizeof(std::int32_t), '\0');
     const std::int32_t code = s;
     std::memcpy(payload.data(), &code, sizeof code);
@@ -379,7 +384,7 @@ DriveResult drive(World& world, cadinterp_builder* builder, const cadinterp_host
   std::unique_ptr<cadinterp_build_session, SessionDestroyer> session(raw);
   Dispatcher dispatcher(session.get(), world.size());
   result.stop_signal = dispatcher.run(stop);
-  result.samples_received = dispatcher.samples_received();
+  result.answers_received = dispatcher.answers_received();
   if (result.stop_signal != 0) {
     result.status = CADINTERP_E_CANCELLED;
   } else {

@@ -9,7 +9,7 @@
 // second later (odls_base_sigkill_timeout). Rank 0 turns SIGTERM into a cancel of the session:
 // every sample it accepted is already committed to the store (one SQLite commit per sample), so
 // running the same command again resumes with only the missing points. Compiled only when CMake
-// finds MPI (CADINTERP_WITH_MPI); src/tools/README.md has the measurements.
+// finds MPI (CADINTERP_WITH_MPI); docs/distributed-builds.md has the measurements.
 #pragma once
 
 #include <csignal>
@@ -54,7 +54,7 @@ struct DriveResult {
   /// Ctrl-C). The other ranks may be dead: abandon the World.
   int stop_signal = 0;
   int worker_ranks = 0;
-  int samples_received = 0;  ///< answers the session accepted (each committed to the store)
+  int answers_received = 0;  ///< answers the session accepted (each committed to the store)
   double wall_seconds = 0;
   double cpu_seconds = 0;  ///< rank 0's CPU time over the run, every thread (getrusage)
 };
@@ -63,14 +63,16 @@ struct DriveResult {
 /// parameter count), then runs a session on `builder` with one request in flight per rank until
 /// the build is done, and finishes it to `output_path`. Stops early when *stop becomes nonzero
 /// (set it from a SIGTERM/SIGINT handler; the value is reported as stop_signal). Throws
-/// std::runtime_error when a rank could not load the host or loaded another one, or on an MPI
-/// error; the builder's report and error describe the run otherwise.
+/// std::runtime_error when a rank could not load the host or loaded another one, or sent a message
+/// out of protocol; the builder's report and error describe the run otherwise. MPI errors abort
+/// the job (MPI_ERRORS_ARE_FATAL, the default).
 DriveResult drive(World& world, cadinterp_builder* builder, const cadinterp_host* host,
                   const std::string& output_path, const volatile std::sig_atomic_t* stop);
 
 /// Ranks >= 1: tells rank 0 which host it loaded (or load_error when host is NULL; then it
 /// returns after rank 0's stop), then answers rank 0's requests until rank 0 says stop. Returns
-/// the number of requests answered. Throws std::runtime_error on an MPI error.
+/// the number of requests answered. MPI errors abort the job; an answer a message cannot carry
+/// (over 2 GiB) makes its point infeasible with that message.
 int serve(const World& world, const cadinterp_host* host, const std::string& load_error);
 
 }  // namespace cadinterp::tools::mpi

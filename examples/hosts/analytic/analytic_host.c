@@ -23,7 +23,7 @@ static cadinterp_status fail(cadinterp_sample* out, cadinterp_status status, con
 
 /* The run-time options: kill_after stands in for a kernel that crashes its process, sleep_ms for
  * the minutes a real CAD regeneration and FEM solve take (distributed builds are measured with
- * it, src/tools/README.md). */
+ * it, docs/distributed-builds.md). */
 static void run_time_behaviour(analytic_model* model) {
   if (model->kill_after >= 0 &&
       __atomic_add_fetch(&model->regenerations, 1, __ATOMIC_RELAXED) > model->kill_after)
