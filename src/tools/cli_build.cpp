@@ -340,14 +340,8 @@ cadinterp_status run_mpi(tools::mpi::World& world, cadinterp_builder* builder,
   }
   sigaction(SIGTERM, &old_term, nullptr);
   sigaction(SIGINT, &old_int, nullptr);
-  if (result->stop_signal != 0) {
-    // The other ranks may be dead already: finalizing would wait for them.
-    world.abandon();
-    std::fprintf(stderr,
-                 "mpi: stopped by %s (mpirun ends the whole job when a rank dies); %d answers "
-                 "from the ranks were accepted in this run\n",
-                 result->stop_signal == SIGTERM ? "SIGTERM" : "SIGINT", result->answers_received);
-  }
+  // The other ranks may be dead already: finalizing would wait for them.
+  if (result->stop_signal != 0) world.abandon();
   return result->status;
 }
 

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <climits>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <memory>
@@ -387,9 +388,17 @@ DriveResult drive(World& world, cadinterp_builder* builder, const cadinterp_host
   result.answers_received = dispatcher.answers_received();
   if (result.stop_signal != 0) {
     result.status = CADINTERP_E_CANCELLED;
+    // Said before the session is destroyed: mpirun's SIGKILL follows its SIGTERM within a second.
+    std::fprintf(stderr,
+                 "mpi: stopped by %s (mpirun ends the whole job when a rank dies); %d answers "
+                 "from the ranks were accepted in this run\n",
+                 result.stop_signal == SIGTERM ? "SIGTERM" : "SIGINT", result.answers_received);
+    std::fflush(stderr);
   } else {
     world.stop_workers();
     result.status = cadinterp_build_session_finish(session.get(), output_path.c_str());
+    // A signal while the session finished (the progress callback cancels it then).
+    if (result.status == CADINTERP_E_CANCELLED) result.stop_signal = static_cast<int>(*stop);
   }
   session.reset();
   result.wall_seconds = std::chrono::duration<double>(Clock::now() - t0).count();

@@ -62,7 +62,8 @@ struct DriveResult {
 /// Rank 0 (world.size() >= 2): checks that every rank loaded the same host (identity and
 /// parameter count), then runs a session on `builder` with one request in flight per rank until
 /// the build is done, and finishes it to `output_path`. Stops early when *stop becomes nonzero
-/// (set it from a SIGTERM/SIGINT handler; the value is reported as stop_signal). Throws
+/// (set it from a SIGTERM/SIGINT handler; the value is reported as stop_signal, and a line on
+/// stderr says how many answers were accepted). Throws
 /// std::runtime_error when a rank could not load the host or loaded another one, or sent a message
 /// out of protocol; the builder's report and error describe the run otherwise. MPI errors abort
 /// the job (MPI_ERRORS_ARE_FATAL, the default).
