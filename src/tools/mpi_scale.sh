@@ -26,7 +26,7 @@ for n in "${RANKS[@]}"; do
     -o "$WORK/a.cadi" >"$WORK/out" 2>"$WORK/err" || { cat "$WORK/err"; exit 1; }
   # "  mpi  W host ranks, S answers from them, X answers/s; rank 0 CPU C s (M ms per answer, B % busy)"
   line=$(grep "^  mpi " "$WORK/out")
-  read -r w s x c m b < <(echo "$line" | sed -E \
+  read -r w s x _ m b < <(echo "$line" | sed -E \
     's/.* ([0-9]+) host ranks, ([0-9]+) answers from them, ([0-9.]+) answers\/s; rank 0 CPU ([0-9.]+) s \(([0-9.]+) ms per answer, ([0-9.]+) % busy\).*/\1 \2 \3 \4 \5 \6/')
   wall=$(awk -v s="$s" -v x="$x" 'BEGIN { printf "%.1f", s / x }')
   [ -n "$base" ] || base=$x
