@@ -166,7 +166,8 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* sa
 
 /* ---- The host ----------------------------------------------------------------------------
  * The callbacks run on the builder's worker threads, not necessarily the thread that called
- * cadinterp_builder_run, and concurrently for different x only when the host sets thread_safe.
+ * cadinterp_builder_run (unless cadinterp_build_options::host_on_calling_thread), and
+ * concurrently for different x only when the host sets thread_safe.
  * `x` (K doubles) and `out` are valid only during the call. A return other than CADINTERP_OK,
  * a C++ exception (caught by the builder) or an invalid result makes x infeasible; the build
  * goes on. */
@@ -253,8 +254,9 @@ typedef struct cadinterp_progress {
 
 /** Progress callback: return nonzero to cancel the build (cadinterp_builder_run then returns
  * CADINTERP_E_CANCELLED; the samples finished so far stay in the store). Called from the thread
- * that runs cadinterp_builder_run, after each finished sample and each refinement wave; it must
- * not call cadinterp_builder_* functions on the builder that is running. */
+ * that runs cadinterp_builder_run, after each finished sample and each refinement wave (a
+ * session: see "Build sessions"); it must not call cadinterp_builder_* functions on the builder
+ * that is running. */
 typedef int (*cadinterp_progress_fn)(void* user, const cadinterp_progress* progress);
 
 /** Options of a build. Fill it with cadinterp_build_options_init (the defaults), then change

@@ -165,11 +165,12 @@ TEST(BuildSession, OutOfOrderConcurrentAnswersGiveTheCallbackBuildsBytes) {
 
 // simulate_mapped through a session: the mapped meshes come back as SIMULATE requests.
 TEST(BuildSession, SimulateMappedRequestsGiveTheCallbackBuildsBytes) {
-  const cadinterp_host* h = analytic("plate", "edge=8");
+  const cadinterp_host* h = analytic("plate", "edge=16");
   ASSERT_NE(h, nullptr);
   cadinterp_build_options o;
   cadinterp_build_options_init(&o);
-  o.max_samples = 40;
+  o.max_samples = 24;
+  o.canonical_refinement = 0;
   o.threads = 2;
   o.simulate_mapped = 1;
   const std::string ref = temp_path("sim_ref.cadi"), a = temp_path("sim_a.cadi");
@@ -221,13 +222,14 @@ struct ThreadBoundHost {
 };
 
 TEST(BuildSession, CallingThreadModeCallsTheHostOnlyFromTheCallingThread) {
-  const cadinterp_host* h = analytic("plate", "edge=8");
+  const cadinterp_host* h = analytic("plate", "edge=16");
   ASSERT_NE(h, nullptr);
   ThreadBoundHost bound(h);
   ASSERT_TRUE(bound.host.thread_safe);  // the builder may not lean on a serializing host
   cadinterp_build_options o;
   cadinterp_build_options_init(&o);
-  o.max_samples = 30;
+  o.max_samples = 24;
+  o.canonical_refinement = 0;
   o.threads = 4;
   o.simulate_mapped = 1;
   std::atomic<int> progress_foreign{0};
