@@ -69,6 +69,10 @@ PACKAGES=(
   python3-gmsh
   calculix-ccx
   python3-scipy
+  # Distributed builds, `mpirun -np N cadinterp build --mpi` (src/tools/mpi_driver.h): Open MPI's
+  # headers and libraries, and mpirun for the tests labelled 'mpi'.
+  libopenmpi-dev
+  openmpi-bin
 )
 
 # Node.js: the WebAssembly tests and the explorer (vite 7, playwright-core) need Node >= 20.19 and

@@ -21,6 +21,9 @@
 #ifdef CADINTERP_CLI_HAVE_ANALYTIC
 #include "analytic_host.h"
 #endif
+#ifdef CADINTERP_CLI_HAVE_MPI
+#include "mpi_driver.h"
+#endif
 
 namespace cadinterp::cli {
 
@@ -120,7 +123,8 @@ struct BuilderDestroyer {
 struct BuildArgs {
   cadinterp_build_options o;
   std::string host_spec, model, host_options, store, output, degree;
-  bool quiet = false, simulate_mapped = false;
+  bool quiet = false, simulate_mapped = false, calling_thread = false;
+  bool mpi = false;  // --mpi (the MPI block below)
 };
 
 void declare_options(ArgParser& p, BuildArgs& a) {
@@ -143,6 +147,10 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            1, 100000000);
   p.option("max-depth", 0, "N", "splits per direction", &o.max_depth, 0, 30);
   p.option("threads", 'j', "N", "host evaluations in parallel (0: all cores)", &o.threads, 0, 4096);
+  p.flag("calling-thread", 0,
+         "call the host only from the main thread, one evaluation at a time\n(kernels bound to "
+         "the thread that created them; --threads is ignored)",
+         &a.calling_thread);
   p.option("store", 0, "FILE", "sample store (SQLite) to resume from and save to", &a.store);
   p.option("lossy-positions", 0, "ERR",
            "max absolute error the codec may add to positions,\nin model units (0: lossless)",
@@ -157,13 +165,20 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            &o.canonical_refinement, 0, 20);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
+  // --mpi: the MPI block below.
+  p.flag(
+      "mpi", 0,
+      "distributed build under mpirun (at least 2 ranks): rank 0 runs\nthe builder and the "
+      "store, ranks 1.. run the host; each rank\nloads --host itself (docs/distributed-builds.md)",
+      &a.mpi);
   p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
            "(model, options, &error)\nreturns the host (cadinterp_host_entry_fn in "
            "cadinterp_builder.h).\n"
            "\nexamples:\n"
            "  cadinterp build --host analytic -o demo.cadi\n"
            "  cadinterp build --host ./libmyhost.so --model bracket --degree 3 \\\n"
-           "      --geometry-tol 1e-3 --max-samples 500 --store bracket.db -o bracket.cadi");
+           "      --geometry-tol 1e-3 --max-samples 500 --store bracket.db -o bracket.cadi\n"
+           "  mpirun -np 8 cadinterp build --mpi --host ./libmyhost.so --store b.db -o b.cadi");
 }
 
 /// Runs the build to `output`; the wall time goes to `*wall`.
@@ -267,6 +282,86 @@ void report_outcome(cadinterp_status s, double wall, cadinterp_builder* builder,
         a.o.max_samples);
 }
 
+// ---- --mpi: distributed builds (mpi_driver.h) ----------------------------------------------
+#ifdef CADINTERP_CLI_HAVE_MPI
+volatile std::sig_atomic_t g_mpi_stop = 0;
+
+// mpirun sends SIGTERM to every rank when one dies or on Ctrl-C: rank 0 then cancels cleanly
+// (its accepted samples are in the store) instead of dying mid-write.
+extern "C" void on_mpi_stop(int signal) {
+  g_mpi_stop = signal;
+  g_cancel = 1;
+}
+
+/// MPI_Init (only under --mpi, so the tool without mpirun never touches MPI) and the check that
+/// there is a rank to run the host besides rank 0.
+std::unique_ptr<tools::mpi::World> start_mpi() {
+  std::unique_ptr<tools::mpi::World> world;
+  try {
+    world = std::make_unique<tools::mpi::World>();
+  } catch (const std::runtime_error& e) {
+    throw RuntimeFailure(std::string("--mpi: ") + e.what());
+  }
+  if (world->size() < 2)
+    throw UsageError(
+        "--mpi needs at least 2 ranks: rank 0 runs the builder and ranks 1.. run the host "
+        "(mpirun -np N cadinterp build --mpi ..., N >= 2); without mpirun, drop --mpi");
+  return world;
+}
+
+/// Ranks >= 1: load the host as rank 0 does, then answer its requests until it says stop.
+int serve_rank(const tools::mpi::World& world, const BuildArgs& a) {
+  LoadedHost host;
+  std::string error;
+  try {
+    load_host(a.host_spec, a.model, a.host_options, host);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  try {
+    tools::mpi::serve(world, host.host, error);
+  } catch (const std::runtime_error& e) {
+    throw RuntimeFailure(fmt("--mpi rank %d: %s", world.rank(), e.what()));
+  }
+  return error.empty() ? kExitOk : kExitError;
+}
+
+/// Rank 0: the build driven over the ranks; SIGTERM and SIGINT stop it cleanly.
+cadinterp_status run_mpi(tools::mpi::World& world, cadinterp_builder* builder,
+                         const cadinterp_host* host, const std::string& output,
+                         tools::mpi::DriveResult* result) {
+  struct sigaction sa {
+  }, old_term{}, old_int{};
+  sa.sa_handler = on_mpi_stop;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND;
+  sigaction(SIGTERM, &sa, &old_term);
+  sigaction(SIGINT, &sa, &old_int);
+  try {
+    *result = tools::mpi::drive(world, builder, host, output, &g_mpi_stop);
+  } catch (const std::runtime_error& e) {
+    throw RuntimeFailure(std::string("--mpi: ") + e.what());
+  }
+  sigaction(SIGTERM, &old_term, nullptr);
+  sigaction(SIGINT, &old_int, nullptr);
+  // The other ranks may be dead already: finalizing would wait for them.
+  if (result->stop_signal != 0) world.abandon();
+  return result->status;
+}
+
+/// rank 0's load: CPU time of every thread of rank 0 (builder, store, MPI) per answer received
+/// (a sample, or with --simulate-mapped also a simulation on a mapped mesh), and its share of the
+/// wall time (busy = overhead x throughput, docs/distributed-builds.md).
+void print_mpi_summary(const tools::mpi::DriveResult& r) {
+  std::printf(
+      "  mpi                %d host ranks, %d answers from them, %.2f answers/s; rank 0 "
+      "CPU %.3f s (%.2f ms per answer, %.1f %% busy)\n",
+      r.worker_ranks, r.answers_received,
+      r.wall_seconds > 0 ? r.answers_received / r.wall_seconds : 0.0, r.cpu_seconds,
+      r.answers_received > 0 ? 1e3 * r.cpu_seconds / r.answers_received : 0.0,
+      r.wall_seconds > 0 ? 100 * r.cpu_seconds / r.wall_seconds : 0.0);
+}
+#endif
 }  // namespace
 
 int cmd_build(const std::vector<std::string>& args) {
@@ -282,8 +377,21 @@ int cmd_build(const std::vector<std::string>& args) {
       "evaluating finished samples again.");
   declare_options(p, a);
   if (!p.parse(args)) return kExitOk;
+#ifdef CADINTERP_CLI_HAVE_MPI
+  std::unique_ptr<tools::mpi::World> world;
+  if (a.mpi) {
+    world = start_mpi();
+    if (world->rank() != 0) return serve_rank(*world, a);
+  }
+#else
+  if (a.mpi)
+    throw UsageError(
+        "--mpi: this build has no MPI support (configure with MPI found, "
+        "CADINTERP_WITH_MPI=ON; Debian: libopenmpi-dev)");
+#endif
   o.degree = std::stoi(a.degree);
   o.simulate_mapped = a.simulate_mapped ? 1 : 0;
+  o.host_on_calling_thread = a.calling_thread ? 1 : 0;
   if (!a.store.empty()) o.store_path = a.store.c_str();
 
   LoadedHost host;
@@ -309,10 +417,23 @@ int cmd_build(const std::vector<std::string>& args) {
                  a.store.empty() ? "" : (", store " + a.store).c_str());
   }
   double wall = 0;
+#ifdef CADINTERP_CLI_HAVE_MPI
+  tools::mpi::DriveResult mpi_result;
+  if (world) {
+    s = run_mpi(*world, builder.get(), host.host, a.output, &mpi_result);
+    wall = mpi_result.wall_seconds;
+  } else {
+    s = run_cancellable(builder.get(), a.output, &wall);
+  }
+#else
   s = run_cancellable(builder.get(), a.output, &wall);
+#endif
   // The bar's last frame may be up to 0.1 s stale: replace it by the outcome below.
   if (progress.line_open) std::fputs("\r\x1b[K", stderr);
   report_outcome(s, wall, builder.get(), a, progress);
+#ifdef CADINTERP_CLI_HAVE_MPI
+  if (world) print_mpi_summary(mpi_result);
+#endif
   return kExitOk;
 }
 

@@ -1,15 +1,18 @@
 /* The host: cadinterp_host callbacks as thin wrappers of the analytic_model_* functions, and the
  * exported entry point.
  *
- * The callbacks only read their immutable model and work on memory of their own, so the host is
- * thread-safe. The one global is the list of hosts the entry has handed out: the header promises
- * a host stays valid until the library is unloaded, so the library owns it; equal requests share
- * a host, which bounds the list by the number of distinct (model, options) asked for. */
+ * The callbacks only read their immutable model (but for kill_after's atomic call count) and work
+ * on memory of their own, so the host is thread-safe. The one global is the list of hosts the entry
+ * has handed out: the header promises a host stays valid until the library is unloaded, so the
+ * library owns it; equal requests share a host, which bounds the list by the number of distinct
+ * (model, options) asked for. */
 #define _POSIX_C_SOURCE 200809L
 
 #include <pthread.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "analytic_internal.h"
 
@@ -18,10 +21,28 @@ static cadinterp_status fail(cadinterp_sample* out, cadinterp_status status, con
   return status;
 }
 
+/* The run-time options: kill_after stands in for a kernel that crashes its process, sleep_ms for
+ * the minutes a real CAD regeneration and FEM solve take (distributed builds are measured with
+ * it, docs/distributed-builds.md). */
+static void run_time_behaviour(analytic_model* model) {
+  if (model->kill_after >= 0 &&
+      __atomic_add_fetch(&model->regenerations, 1, __ATOMIC_RELAXED) > model->kill_after)
+    raise(SIGKILL);
+  if (model->sleep_ms > 0) {
+    struct timespec t;
+    t.tv_sec = model->sleep_ms / 1000;
+    t.tv_nsec = (model->sleep_ms % 1000) * 1000000L;
+    while (nanosleep(&t, &t) != 0) {
+    }
+  }
+}
+
 static cadinterp_status host_regenerate(void* user, const double* x, cadinterp_sample* out) {
   analytic_mesh mesh;
   const char* message = NULL;
-  cadinterp_status status = analytic_model_mesh((const analytic_model*)user, x, &mesh, &message);
+  cadinterp_status status;
+  run_time_behaviour((analytic_model*)user);
+  status = analytic_model_mesh((const analytic_model*)user, x, &mesh, &message);
   if (status != CADINTERP_OK) return fail(out, status, message);
   status =
       cadinterp_sample_set_mesh(out, mesh.vertices, mesh.vertex_count, mesh.tets, mesh.tet_count,
@@ -106,7 +127,9 @@ const cadinterp_host* cadinterp_host_entry(const char* model, const char* option
   }
   pthread_mutex_lock(&g_hosts_lock);
   for (r = g_hosts; r; r = r->next)
-    if (strcmp(analytic_model_identity(r->model), analytic_model_identity(m)) == 0) break;
+    if (strcmp(analytic_model_identity(r->model), analytic_model_identity(m)) == 0 &&
+        r->model->sleep_ms == m->sleep_ms && r->model->kill_after == m->kill_after)
+      break;
   if (!r && (r = (host_record*)calloc(1, sizeof(*r))) != NULL) {
     r->model = m;
     m = NULL;

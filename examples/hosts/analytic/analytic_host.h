@@ -40,7 +40,10 @@ extern "C" {
  * @param[in] options  "key=value" pairs separated by ','; NULL or "": defaults. Keys:
  *                     cells=N (bracket, 1..64), edge=MM (plate, foldplate, 0.5..100, up to 3
  *                     decimals),
- *                     levels=D (0..6 edge subdivision levels), fail_region=0|1
+ *                     levels=D (0..6 edge subdivision levels), fail_region=0|1;
+ *                     run-time only (not in the identity, results unchanged): sleep_ms=N
+ *                     (sleep per regenerate), kill_after=N (the process's (N+1)th regenerate
+ *                     kills the process with SIGKILL: a crashing kernel, for tests)
  * @param[out] error   on failure, a static message (may be NULL)
  * @return a host valid until the library is unloaded (the same host for the same model and
  *         options), or NULL for an unknown model, malformed option or out of memory.
@@ -50,7 +53,7 @@ ANALYTIC_HOST_EXPORT const cadinterp_host* cadinterp_host_entry(const char* mode
                                                                 const char* options,
                                                                 const char** error);
 
-/** A model with its options (opaque, immutable). */
+/** A model with its options (opaque; immutable but for kill_after's call count). */
 typedef struct analytic_model analytic_model;
 
 /** Creates a model like cadinterp_host_entry does, owned by the caller; NULL with a static

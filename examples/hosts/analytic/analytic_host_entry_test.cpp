@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -57,6 +60,49 @@ TEST(AnalyticEntry, HostsAndErrors) {
   other.regenerate = nullptr;
   EXPECT_EQ(analytic_host_model(&other), nullptr);
   EXPECT_EQ(analytic_host_model(nullptr), nullptr);
+}
+
+// sleep_ms and kill_after change no result: the identity (and so a store or an asset) is the
+// same, but the host is another one (its callbacks behave differently).
+TEST(AnalyticEntry, RunTimeOptionsKeepTheIdentity) {
+  const char* error = nullptr;
+  const cadinterp_host* plain = cadinterp_host_entry("plate", "edge=8", &error);
+  const cadinterp_host* slow = cadinterp_host_entry("plate", "edge=8,sleep_ms=30", &error);
+  const cadinterp_host* fragile = cadinterp_host_entry("plate", "kill_after=0,edge=8", &error);
+  ASSERT_NE(plain, nullptr);
+  ASSERT_NE(slow, nullptr) << error;
+  ASSERT_NE(fragile, nullptr) << error;
+  EXPECT_STREQ(slow->identity, plain->identity);
+  EXPECT_STREQ(fragile->identity, plain->identity);
+  EXPECT_NE(slow, plain);
+  EXPECT_NE(fragile, plain);
+  EXPECT_NE(fragile, slow);
+  EXPECT_EQ(cadinterp_host_entry("plate", "sleep_ms=30,edge=8", &error), slow);
+  for (const char* bad : {"sleep_ms=-1", "sleep_ms=3600001", "sleep_ms=1,sleep_ms=2",
+                          "kill_after=x", "kill_after=-1", "kill_after="}) {
+    error = nullptr;
+    EXPECT_EQ(cadinterp_host_entry("plate", bad, &error), nullptr) << bad;
+    ASSERT_NE(error, nullptr) << bad;
+  }
+
+  // sleep_ms sleeps in every regenerate.
+  const double x[3] = {60, 40, 6};
+  void* bytes = nullptr;
+  std::size_t size = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(cadinterp_host_evaluate_serialized(slow, x, &bytes, &size), CADINTERP_OK);
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(30));
+  cadinterp_bytes_free(bytes);
+
+  // kill_after=0: the first regenerate kills the process with SIGKILL.
+  EXPECT_EXIT(
+      {
+        void* never = nullptr;
+        std::size_t n = 0;
+        cadinterp_host_evaluate_serialized(fragile, x, &never, &n);
+        std::exit(0);
+      },
+      ::testing::KilledBySignal(SIGKILL), "");
 }
 
 TEST(AnalyticEntry, LoadsFromTheSharedLibrary) {

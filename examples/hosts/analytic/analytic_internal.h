@@ -26,6 +26,11 @@ struct analytic_model {
   int levels;      /* edge subdivision levels of the control points */
   int fail_region; /* nonzero: infeasible corner of the box */
   char identity[160];
+  /* Run-time behaviour, left out of the identity because results do not depend on it (a store
+   * written with one setting resumes with another): */
+  long sleep_ms;   /* sleep per regenerate, a stand-in for a slow CAD kernel and FEM */
+  long kill_after; /* -1: off; else the process kills itself at its (kill_after+1)th regenerate */
+  long regenerations; /* regenerate calls so far in this process (kill_after's count; atomic) */
 };
 
 /* One B-rep vertex: stable id and its grid vertex. */

@@ -104,12 +104,22 @@ static const char* parse_options(const char* options, analytic_model* m) {
         return "analytic host: fail_region must be 0 or 1";
       m->fail_region = (int)v;
       bit = 8;
+    } else if (key_is(p, key_length, "sleep_ms")) {
+      if (!parse_int(value, value_length, &v) || v > 3600000)
+        return "analytic host: sleep_ms must be an integer in 0..3600000";
+      m->sleep_ms = v;
+      bit = 16;
+    } else if (key_is(p, key_length, "kill_after")) {
+      if (!parse_int(value, value_length, &v))
+        return "analytic host: kill_after must be an integer in 0..999999999";
+      m->kill_after = v;
+      bit = 32;
     } else {
       return m->kind == ANALYTIC_BRACKET
                  ? "analytic host: unknown option for model 'bracket' (known: cells, levels, "
-                   "fail_region)"
+                   "fail_region, sleep_ms, kill_after)"
                  : "analytic host: unknown option for model 'plate' or 'foldplate' (known: "
-                   "edge, levels, fail_region)";
+                   "edge, levels, fail_region, sleep_ms, kill_after)";
     }
     if (seen & bit) return "analytic host: an option is given twice";
     seen |= bit;
@@ -136,6 +146,7 @@ analytic_model* analytic_model_create(const char* model, const char* options, co
   m.cells = DEFAULT_CELLS;
   m.edge_um = DEFAULT_EDGE_UM;
   m.levels = DEFAULT_LEVELS;
+  m.kill_after = -1;
   message = parse_options(options, &m);
   if (message) {
     if (error) *error = message;
