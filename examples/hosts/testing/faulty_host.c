@@ -10,7 +10,8 @@
  *                it stops at 4 GiB and aborts, so a mistake cannot take the machine down)
  *
  * A point is affected when its first parameter, scaled to [0, 1] over the parameter's range,
- * lies in [LO, HI]; the windows are tested in the order above. Further options:
+ * lies in [LO, HI]. A window LO:HI:LO1:HI1 also needs the second parameter, scaled alike, in
+ * [LO1, HI1]. The windows are tested in the order above. Further options:
  *   log=PATH     appends "x0 x1 ...\n" (%.17g) to PATH at every regenerate call, before any
  *                fault, so a test counts the calls per point (retries included)
  *   inner=PATH   the wrapped host library (default: the analytic host of this build tree)
@@ -44,7 +45,7 @@ static const char* const kFaultNames[FAULT_KINDS] = {"segv", "abort", "hang", "l
 typedef struct faulty {
   cadinterp_host host; /* what the entry returns: the inner host with regenerate wrapped */
   const cadinterp_host* inner;
-  double window[FAULT_KINDS][2]; /* [LO, HI]; LO > HI: no window */
+  double window[FAULT_KINDS][4]; /* [LO, HI] of parameter 0, [LO1, HI1] of 1; LO > HI: none */
   char log_path[1024];
   char identity[2048];
 } faulty;
@@ -107,14 +108,21 @@ static void fail_hard(int kind) {
   }
 }
 
+static double scaled(const faulty* f, const double* x, int i) {
+  const cadinterp_parameter_desc* p = &f->inner->parameters[i];
+  return (x[i] - p->lower) / (p->upper - p->lower);
+}
+
 static cadinterp_status faulty_regenerate(void* user, const double* x, cadinterp_sample* out) {
   const faulty* f = (const faulty*)user;
-  const cadinterp_parameter_desc* p0 = &f->inner->parameters[0];
-  const double t = (x[0] - p0->lower) / (p0->upper - p0->lower);
+  const double t0 = scaled(f, x, 0);
+  const double t1 = f->inner->parameter_count > 1 ? scaled(f, x, 1) : 0;
   int kind;
   log_call(f, x);
-  for (kind = 0; kind < FAULT_KINDS; ++kind)
-    if (f->window[kind][0] <= t && t <= f->window[kind][1]) fail_hard(kind);
+  for (kind = 0; kind < FAULT_KINDS; ++kind) {
+    const double* w = f->window[kind];
+    if (w[0] <= t0 && t0 <= w[1] && w[2] <= t1 && t1 <= w[3]) fail_hard(kind);
+  }
   return f->inner->regenerate(f->inner->user, x, out);
 }
 
@@ -149,8 +157,9 @@ static const char* parse_options(const char* options, faulty* f, char* inner_pat
     *value++ = '\0';
     for (kind = 0; kind < FAULT_KINDS; ++kind)
       if (strcmp(item, kFaultNames[kind]) == 0) {
-        if (sscanf(value, "%lf:%lf", &f->window[kind][0], &f->window[kind][1]) != 2)
-          return "faulty host: a fault window is not LO:HI";
+        double* w = f->window[kind];
+        const int n = sscanf(value, "%lf:%lf:%lf:%lf", &w[0], &w[1], &w[2], &w[3]);
+        if (n != 2 && n != 4) return "faulty host: a fault window is not LO:HI or LO:HI:LO1:HI1";
         mine = 1;
       }
     if (strcmp(item, "log") == 0) {
@@ -208,6 +217,8 @@ FAULTY_EXPORT const cadinterp_host* cadinterp_host_entry(const char* model, cons
     for (kind = 0; kind < FAULT_KINDS; ++kind) {
       f.window[kind][0] = 1;
       f.window[kind][1] = 0;
+      f.window[kind][2] = 0;
+      f.window[kind][3] = 1;
     }
     message = parse_options(options ? options : "", &f, inner_path, sizeof inner_path,
                             inner_options, sizeof inner_options);
