@@ -167,15 +167,17 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
   ThreadPoolExecutor pool(host, threads);
   Executor& exec = opt.executor ? *opt.executor : pool;
 
-  std::unique_ptr<SampleStore> store;
-  if (!opt.store_path.empty()) {
+  std::unique_ptr<SampleStore> own_store;
+  SampleStore* store = opt.store;
+  if (!store && !opt.store_path.empty()) {
     const StageTimer timer(details.store_seconds);
-    store = std::make_unique<SampleStore>(opt.store_path, store_fingerprint(host));
+    own_store = std::make_unique<SampleStore>(opt.store_path, store_fingerprint(host));
+    store = own_store.get();
   }
 
   // Sample adaptively (§4.2): the rows and maps of `problem` outlive the refinement, since the
   // element stage reads them.
-  MeshProblem problem(host, opt, mapper, exec, store.get(), details, start);
+  MeshProblem problem(host, opt, mapper, exec, store, details, start);
   const core::AdaptiveRun run = sample_adaptively(host, opt, problem, details);
   const StageTimer elements_timer(details.elements_seconds);
   const std::vector<int> leaves = run.basis.tree().leaves();

@@ -26,6 +26,8 @@
 
 namespace cadinterp::builder {
 
+class SampleStore;
+
 struct BuildCancelled : std::runtime_error {
   BuildCancelled() : std::runtime_error("build cancelled") {}
 };
@@ -70,6 +72,9 @@ struct BuildOptions {
   int max_depth = 8;
   int threads = 0;         ///< 0: hardware concurrency
   std::string store_path;  ///< empty: no store
+  /// A store already opened for this host (store_fingerprint), used instead of opening
+  /// store_path: a build session opens it when it is created, so that a bad store fails there.
+  SampleStore* store = nullptr;
   double position_max_abs_error = 0.0;
   /// Called after every delivered sample; returns true to cancel.
   std::function<bool(const cadinterp_progress&)> progress;

@@ -10,10 +10,12 @@
 #include <new>
 #include <set>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
 #include "builder/build.h"
+#include "builder/build_session.h"
 #include "builder/sample_store.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "capi/capi_guard.h"
@@ -76,7 +78,53 @@ struct cadinterp_builder {
   cadinterp::builder::BuildReport details;  // of the last run, finished or failed
   double write_seconds = 0;
   std::string error;
+  bool host_on_calling_thread = false;
+  bool busy = false;  // a session exists or a run is under way (either excludes the other)
 };
+
+struct cadinterp_build_session {
+  cadinterp_builder* builder = nullptr;
+  std::unique_ptr<cadinterp::builder::BuildSession> session;
+  bool finished = false;
+};
+
+namespace {
+
+int session_concurrency(const cadinterp_builder& b) {
+  return b.options.threads > 0
+             ? b.options.threads
+             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+std::unique_ptr<cadinterp::builder::BuildSession> start_session(cadinterp_builder& b) {
+  return std::make_unique<cadinterp::builder::BuildSession>(*b.host, b.options,
+                                                            session_concurrency(b));
+}
+
+// The end of a run or session: the build's result written to `path` (temporary name, renamed)
+// and the builder's report, stages, reasons and error set from it, whatever happened.
+cadinterp_status end_run(cadinterp_builder& b, cadinterp::builder::BuildSession& session,
+                         const char* path) {
+  b.write_seconds = 0;
+  const cadinterp_status status = [&]() -> cadinterp_status {
+    CADINTERP_CATCH_BEGIN
+    cadinterp::builder::BuildResult r = session.finish(b.details);
+    const auto t0 = std::chrono::steady_clock::now();
+    cadinterp::format::WriteOptions w;
+    w.position_max_abs_error = b.options.position_max_abs_error;
+    cadinterp::format::write_asset_file(r.content, w, path);
+    b.details.counts.asset_bytes = std::filesystem::file_size(path);
+    b.write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    b.details.counts.wall_seconds += b.write_seconds;
+    b.error.clear();
+    return CADINTERP_OK;
+    CADINTERP_CATCH_END_MAP(&b.error, builder_exceptions)
+  }();
+  b.report = b.details.counts;
+  return status;
+}
+
+}  // namespace
 
 extern "C" {
 
@@ -303,6 +351,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
     throw std::invalid_argument("options: position_max_abs_error must be >= 0");
   if (bo.simulate_mapped && !host->simulate)
     throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
+  b->host_on_calling_thread = o.host_on_calling_thread != 0;
   b->progress = o.progress;
   b->progress_user = o.progress_user;
   if (b->progress) {
@@ -327,28 +376,44 @@ CADINTERP_API void cadinterp_builder_destroy(cadinterp_builder* b) { delete b; }
 
 CADINTERP_API cadinterp_status cadinterp_builder_run(cadinterp_builder* b, const char* path) {
   if (!b) return CADINTERP_E_INVALID_ARGUMENT;
+  if (b->busy) {
+    b->error = "a build session is active on this builder";
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
   b->details = cadinterp::builder::BuildReport{};
   b->write_seconds = 0;
-  const cadinterp_status status = [&]() -> cadinterp_status {
+  std::unique_ptr<cadinterp::builder::BuildSession> session;
+  const cadinterp_status started = [&]() -> cadinterp_status {
     CADINTERP_CATCH_BEGIN
     if (!path || !*path) throw std::invalid_argument("output path is NULL or empty");
     cadinterp::format::check_asset_file_writable(path);
-    cadinterp::builder::BuildResult r =
-        cadinterp::builder::build(*b->host, b->options, &b->details);
-    const auto t0 = std::chrono::steady_clock::now();
-    cadinterp::format::WriteOptions w;
-    w.position_max_abs_error = b->options.position_max_abs_error;
-    cadinterp::format::write_asset_file(r.content, w, path);
-    b->details.counts.asset_bytes = std::filesystem::file_size(path);
-    b->write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    b->details.counts.wall_seconds += b->write_seconds;
-    b->error.clear();
+    session = start_session(*b);
     return CADINTERP_OK;
     CADINTERP_CATCH_END_MAP(&b->error, builder_exceptions)
   }();
-  // On every path: a failed run still reports what it did before failing (build() fills
-  // `details` before it returns or throws).
-  b->report = b->details.counts;
+  if (started != CADINTERP_OK) {
+    b->report = b->details.counts;
+    return started;
+  }
+  // The run is a driver over the session: the host on worker threads, or on this thread.
+  b->busy = true;
+  const cadinterp_status driven = [&]() -> cadinterp_status {
+    CADINTERP_CATCH_BEGIN
+    if (b->host_on_calling_thread)
+      cadinterp::builder::drive_on_calling_thread(*session, *b->host);
+    else
+      cadinterp::builder::drive_with_threads(*session, *b->host, session_concurrency(*b));
+    return CADINTERP_OK;
+    CADINTERP_CATCH_END_MAP(&b->error, builder_exceptions)
+  }();
+  const std::string drive_error = b->error;
+  cadinterp_status status = end_run(*b, *session, path);
+  if (driven != CADINTERP_OK) {  // the driver's own failure (out of memory) cancelled the build
+    status = driven;
+    b->error = drive_error;
+  }
+  session.reset();
+  b->busy = false;
   return status;
 }
 
@@ -399,6 +464,122 @@ CADINTERP_API cadinterp_status cadinterp_builder_infeasible_reason(const cadinte
 
 CADINTERP_API const char* cadinterp_builder_error(const cadinterp_builder* b) {
   return b ? b->error.c_str() : "builder is NULL";
+}
+
+CADINTERP_API cadinterp_status cadinterp_build_session_create(cadinterp_builder* b,
+                                                              cadinterp_build_session** out) {
+  if (out) *out = nullptr;
+  if (!b || !out) return CADINTERP_E_INVALID_ARGUMENT;
+  if (b->busy) {
+    b->error = "a build session is active on this builder";
+    return CADINTERP_E_INVALID_ARGUMENT;
+  }
+  b->details = cadinterp::builder::BuildReport{};
+  b->write_seconds = 0;
+  const cadinterp_status status = [&]() -> cadinterp_status {
+    CADINTERP_CATCH_BEGIN
+    auto s = std::make_unique<cadinterp_build_session>();
+    s->builder = b;
+    s->session = start_session(*b);
+    *out = s.release();
+    b->busy = true;
+    b->error.clear();
+    return CADINTERP_OK;
+    CADINTERP_CATCH_END_MAP(&b->error, builder_exceptions)
+  }();
+  b->report = b->details.counts;
+  return status;
+}
+
+CADINTERP_API cadinterp_status
+cadinterp_build_session_next_requests(cadinterp_build_session* s, cadinterp_build_request* requests,
+                                      size_t capacity, int timeout_ms, size_t* count, int* done) {
+  CADINTERP_CATCH_BEGIN
+  if (!s || !count || !done || (capacity && !requests)) return CADINTERP_E_INVALID_ARGUMENT;
+  std::vector<cadinterp::builder::BuildSession::Request> got(std::min<size_t>(capacity, 1024));
+  bool finished = false;
+  const size_t n = s->session->next_requests(got.data(), got.size(), timeout_ms, finished);
+  for (size_t i = 0; i < n; ++i) requests[i] = got[i].c;
+  *count = n;
+  *done = finished ? 1 : 0;
+  if (s->session->report_progress()) *done = 1;
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
+}
+
+CADINTERP_API cadinterp_status cadinterp_build_session_sample(cadinterp_build_session* s,
+                                                              uint64_t id, cadinterp_sample** out) {
+  if (!s || !out) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp_sample* found = s->session->sample(id);
+  if (!found) return CADINTERP_E_NOT_FOUND;
+  *out = found;
+  return CADINTERP_OK;
+}
+
+CADINTERP_API cadinterp_status cadinterp_build_session_submit(cadinterp_build_session* s,
+                                                              uint64_t id,
+                                                              cadinterp_status host_status) {
+  CADINTERP_CATCH_BEGIN
+  if (!s) return CADINTERP_E_INVALID_ARGUMENT;
+  const cadinterp_status st = s->session->submit_written(id, host_status);
+  if (st == CADINTERP_OK) s->session->report_progress();
+  return st;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
+}
+
+CADINTERP_API cadinterp_status cadinterp_build_session_submit_serialized(cadinterp_build_session* s,
+                                                                         uint64_t id,
+                                                                         const void* bytes,
+                                                                         size_t size) {
+  CADINTERP_CATCH_BEGIN
+  if (!s || !bytes) return CADINTERP_E_INVALID_ARGUMENT;
+  const cadinterp_status st = s->session->submit_serialized(id, bytes, size);
+  if (st == CADINTERP_OK) s->session->report_progress();
+  return st;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
+}
+
+CADINTERP_API cadinterp_status cadinterp_build_session_cancel(cadinterp_build_session* s) {
+  if (!s) return CADINTERP_E_INVALID_ARGUMENT;
+  s->session->cancel();
+  return CADINTERP_OK;
+}
+
+CADINTERP_API cadinterp_status cadinterp_build_session_finish(cadinterp_build_session* s,
+                                                              const char* path) {
+  if (!s || !path || s->finished) return CADINTERP_E_INVALID_ARGUMENT;
+  cadinterp_builder& b = *s->builder;
+  // A path that cannot be written is refused before the wait, and leaves the session
+  // unfinished: finish may be called again with another path.
+  const cadinterp_status writable = [&]() -> cadinterp_status {
+    CADINTERP_CATCH_BEGIN
+    if (!*path) throw std::invalid_argument("output path is empty");
+    cadinterp::format::check_asset_file_writable(path);
+    return CADINTERP_OK;
+    CADINTERP_CATCH_END_MAP(&b.error, builder_exceptions)
+  }();
+  if (writable != CADINTERP_OK) return writable;
+  s->finished = true;
+  return end_run(b, *s->session, path);
+}
+
+CADINTERP_API void cadinterp_build_session_destroy(cadinterp_build_session* s) {
+  if (!s) return;
+  cadinterp_builder& b = *s->builder;
+  if (!s->finished) {
+    // Abandoned: the build is cancelled, and the builder's report says what it did.
+    s->session->cancel();
+    try {
+      s->session->finish(b.details);
+    } catch (...) {
+      cadinterp_status st;
+      builder_exceptions(&st, &b.error);
+    }
+    b.report = b.details.counts;
+  }
+  s->session.reset();
+  b.busy = false;
+  delete s;
 }
 
 }  // extern "C"

@@ -210,7 +210,7 @@ bool MeshProblem::simulate_on_mapped(int src, const Sample& canon, MappedSample&
   const Sample& s = sample(src);
   Sample mesh;
   if (!mapping::mesh_for_simulation(s, canon, m.vertices, mesh, why)) return false;
-  const Sample r = host_.simulate(point(src).data(), mesh);
+  const Sample r = exec_.simulate(point(src), mesh);
   if (!r.feasible) {
     why = r.message;
     return false;
