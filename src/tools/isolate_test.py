@@ -10,6 +10,7 @@
    also with --simulate-mapped (simulate requests carry a mesh to the worker).
 3. Bad input is refused by name: a missing worker, a library that does not load,
    --sample-timeout <= 0, the isolation options without --isolate, a built-in host.
+4. Ctrl-C while every worker hangs (no timeout) stops the build cleanly, at once.
 SANITIZED=1 (an ASan build): the workers run with ASAN_OPTIONS=handle_segv=0, so a SIGSEGV
 stays a signal, and the leak is left out (no address-space limit fits ASan's shadow memory).
 Run with Debian's /usr/bin/python3 (sqlite3 and json only).
@@ -18,10 +19,12 @@ import collections
 import json
 import os
 import re
+import signal
 import sqlite3
 import struct
 import subprocess
 import sys
+import time
 
 CLI, FAULTY, ANALYTIC, WORK = sys.argv[1:5]
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "1"
@@ -172,8 +175,22 @@ def bad_input():
         check(rc != 0 and re.search(pattern, err), "%s: exit %d, stderr %r" % (name, rc, err))
 
 
+def interrupt():
+    args = [CLI, "build", "--host", FAULTY, "--host-options", "edge=10,hang=0:1"] + PLATE + [
+        "--isolate", "--store", fresh("interrupt.db"), "-o", fresh("interrupt.cadi")]
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1)
+    p.send_signal(signal.SIGINT)
+    start = time.monotonic()
+    _, err = p.communicate(timeout=60)
+    check(p.returncode == 1 and "CADINTERP_E_CANCELLED" in err and
+          time.monotonic() - start < 5, "Ctrl-C with hung workers: exit %d in %.1f s, %r" %
+          (p.returncode, time.monotonic() - start, err[-500:]))
+
+
 faults_build()
 identical_builds()
 bad_input()
+interrupt()
 print("%d failure(s)" % len(failures))
 sys.exit(1 if failures else 0)

@@ -58,7 +58,12 @@ class Driver {
   void run() {
     int done = 0;
     for (;;) {
-      if (options_.cancelled && options_.cancelled()) cadinterp_build_session_cancel(session_);
+      // Also when every worker is stuck in a host without a timeout: the session is cancelled
+      // and the workers are stopped at once.
+      if (options_.cancelled && options_.cancelled()) {
+        cadinterp_build_session_cancel(session_);
+        return;
+      }
       std::size_t idle = 0;
       for (const Slot& slot : slots_) idle += slot.job ? 0 : 1;
       const bool busy = idle < slots_.size();
