@@ -169,12 +169,12 @@ void declare_options(ArgParser& p, BuildArgs& a) {
          "point infeasible;\n--threads workers (0: 2)",
          &a.isolate);
   p.option("sample-timeout", 0, "S",
-           "with --isolate: seconds one host call may take before its\nworker is killed "
-           "(default: no limit)",
-           &a.sample_timeout, 1e-3, 1e9);
-  p.option("worker-memory", 0, "MB",
-           "with --isolate: address-space limit of each worker, in MiB\n(default: none)",
-           &a.worker_memory, 16, 1 << 30);
+           "with --isolate: seconds one host call may take before its\nworker is killed",
+           &a.sample_timeout, 1e-3, 1e9)
+      .show_default("no limit");
+  p.option("worker-memory", 0, "MB", "with --isolate: address-space limit of each worker, in MiB",
+           &a.worker_memory, 16, 1 << 30)
+      .show_default("none");
   p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
            "(model, options, &error)\nreturns the host (cadinterp_host_entry_fn in "
            "cadinterp_builder.h).\n"

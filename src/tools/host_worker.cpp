@@ -10,6 +10,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -89,7 +90,10 @@ bool answer(const cadinterp_host& host, std::uint32_t type,
     std::vector<double> vertices;
     std::vector<std::uint32_t> tets, triangles;
     std::vector<std::int32_t> tags;
-    if (!take(payload, &offset, 3, &counts) || !take(payload, &offset, 3 * counts[0], &vertices) ||
+    if (!take(payload, &offset, 3, &counts) ||
+        std::any_of(counts.begin(), counts.end(),
+                    [&payload](std::uint64_t c) { return c > payload.size(); }) ||
+        !take(payload, &offset, 3 * counts[0], &vertices) ||
         !take(payload, &offset, 4 * counts[1], &tets) ||
         !take(payload, &offset, 3 * counts[2], &triangles) ||
         !take(payload, &offset, counts[2], &tags) || offset != payload.size())
