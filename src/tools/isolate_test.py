@@ -32,7 +32,7 @@ if SANITIZED:
     os.environ["ASAN_OPTIONS"] = "handle_segv=0:detect_leaks=0"
 # The per-sample timeout: 200 times a plate sample's cost here (the hang points cost two each), more
 # under ASan.
-TIMEOUT = 6 if SANITIZED else 2
+TIMEOUT = 4 if SANITIZED else 2
 os.makedirs(WORK, exist_ok=True)
 failures = []
 
