@@ -166,7 +166,8 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* sa
 
 /* ---- The host ----------------------------------------------------------------------------
  * The callbacks run on the builder's worker threads, not necessarily the thread that called
- * cadinterp_builder_run, and concurrently for different x only when the host sets thread_safe.
+ * cadinterp_builder_run (unless cadinterp_build_options::host_on_calling_thread), and
+ * concurrently for different x only when the host sets thread_safe.
  * `x` (K doubles) and `out` are valid only during the call. A return other than CADINTERP_OK,
  * a C++ exception (caught by the builder) or an invalid result makes x infeasible; the build
  * goes on. */
@@ -253,8 +254,9 @@ typedef struct cadinterp_progress {
 
 /** Progress callback: return nonzero to cancel the build (cadinterp_builder_run then returns
  * CADINTERP_E_CANCELLED; the samples finished so far stay in the store). Called from the thread
- * that runs cadinterp_builder_run, after each finished sample and each refinement wave; it must
- * not call cadinterp_builder_* functions on the builder that is running. */
+ * that runs cadinterp_builder_run, after each finished sample and each refinement wave (a
+ * session: see "Build sessions"); it must not call cadinterp_builder_* functions on the builder
+ * that is running. */
 typedef int (*cadinterp_progress_fn)(void* user, const cadinterp_progress* progress);
 
 /** Options of a build. Fill it with cadinterp_build_options_init (the defaults), then change
@@ -472,8 +474,14 @@ CADINTERP_API const char* cadinterp_builder_error(const cadinterp_builder* build
  * cadinterp_builder_run and no second session (CADINTERP_E_INVALID_ARGUMENT).
  *
  * Progress callback: called on the threads that call cadinterp_build_session_submit (after each
- * accepted sample) and cadinterp_build_session_next_requests; a nonzero return cancels the
- * session as cadinterp_build_session_cancel does. */
+ * accepted sample) and cadinterp_build_session_next_requests, one call at a time (never
+ * concurrently with itself), with the build's latest progress when it changed since the last
+ * call; a nonzero return cancels the session as cadinterp_build_session_cancel does.
+ *
+ * The report's host_seconds counts, for each sample answered through a session, the time from
+ * its hand-out by next_requests to its submit (the host's own time is not known here; serialized
+ * samples do not carry it). cadinterp_builder_run's drivers count the host's own time, as
+ * before. */
 
 /** A build in progress driven by the caller (opaque). */
 typedef struct cadinterp_build_session cadinterp_build_session;
@@ -557,6 +565,10 @@ CADINTERP_API cadinterp_status cadinterp_build_session_sample(cadinterp_build_se
  *         after the session was cancelled or failed (the answer is dropped);
  *         CADINTERP_E_IO when the sample store cannot be written (the session then fails);
  *         CADINTERP_E_OUT_OF_MEMORY.
+ * A CADINTERP_REQUEST_SAMPLE answer returns once the build has taken it and, with a store,
+ * stored it (so an OK answer survives a kill). An answer to a request handed out before a cancel
+ * is dropped by the build (CADINTERP_E_CANCELLED) but still stored, so that a resumed session
+ * does not ask for it again.
  * Thread-safety: any thread; different requests concurrently.
  */
 CADINTERP_API cadinterp_status cadinterp_build_session_submit(cadinterp_build_session* session,
@@ -588,7 +600,10 @@ CADINTERP_API cadinterp_status cadinterp_build_session_cancel(cadinterp_build_se
  * cadinterp_builder_run does (temporary name, renamed). The builder's report, stages, reasons
  * and error then describe the run.
  * @return the statuses of cadinterp_builder_run (CADINTERP_E_CANCELLED after a cancel);
- *         CADINTERP_E_INVALID_ARGUMENT for a NULL session or path, or a second finish.
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL session or path, or a second finish. An empty
+ *         path (CADINTERP_E_INVALID_ARGUMENT) or one that cannot be written (CADINTERP_E_IO,
+ *         checked before the wait, as cadinterp_builder_run does) leaves the session unfinished:
+ *         finish may be called again with another path.
  * Thread-safety: one thread; it blocks while requests are outstanding, so they must be answered
  * by other threads, or before finish is called.
  */
@@ -596,8 +611,11 @@ CADINTERP_API cadinterp_status cadinterp_build_session_finish(cadinterp_build_se
                                                               const char* output_path);
 
 /** Ends a session (cancelling it if it is not finished) and frees it; the samples answered so
- * far stay in the store. Requests and samples it handed out become invalid. NULL is a no-op.
- * Not concurrently with another call on the session. */
+ * far stay in the store. Requests and samples it handed out become invalid. Waits for the
+ * build's own work to stop (at its next request, or at its end when every point is in the
+ * store). Unless finished, the builder's report, stages and error then describe the abandoned
+ * run (error "build cancelled"). The builder accepts a run or a new session again. NULL is a
+ * no-op. Not concurrently with another call on the session. */
 CADINTERP_API void cadinterp_build_session_destroy(cadinterp_build_session* session);
 
 /* ---- Evaluating a host elsewhere -------------------------------------------------------------

@@ -121,7 +121,7 @@ struct BuilderDestroyer {
 struct BuildArgs {
   cadinterp_build_options o;
   std::string host_spec, model, host_options, store, output, degree;
-  bool quiet = false, simulate_mapped = false;
+  bool quiet = false, simulate_mapped = false, calling_thread = false;
   // --isolate (isolated_driver.h)
   bool isolate = false;
   double sample_timeout = 0;
@@ -148,6 +148,10 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            1, 100000000);
   p.option("max-depth", 0, "N", "splits per direction", &o.max_depth, 0, 30);
   p.option("threads", 'j', "N", "host evaluations in parallel (0: all cores)", &o.threads, 0, 4096);
+  p.flag("calling-thread", 0,
+         "call the host only from the main thread, one evaluation at a time\n(kernels bound to "
+         "the thread that created them; --threads is ignored)",
+         &a.calling_thread);
   p.option("store", 0, "FILE", "sample store (SQLite) to resume from and save to", &a.store);
   p.option("lossy-positions", 0, "ERR",
            "max absolute error the codec may add to positions,\nin model units (0: lossless)",
@@ -339,6 +343,7 @@ int cmd_build(const std::vector<std::string>& args) {
   if (!p.parse(args)) return kExitOk;
   o.degree = std::stoi(a.degree);
   o.simulate_mapped = a.simulate_mapped ? 1 : 0;
+  o.host_on_calling_thread = a.calling_thread ? 1 : 0;
   if (!a.store.empty()) o.store_path = a.store.c_str();
 
   LoadedHost host;

@@ -56,6 +56,7 @@ for c in build inspect eval bench explore; do
 done
 contains help_build out "--geometry-tol"
 contains help_build out "--store"
+contains help_build out "--calling-thread"
 contains help_eval out "--gltf"
 contains help_bench out "--iterations"
 
@@ -228,6 +229,10 @@ if grep -q "^builder: yes" "$WORK/version.out"; then
           'all(len(p["x"]) == len(d["parameters"]) and "fail_region" in p["message"] for p in d["infeasible_points"]) and len(d["infeasible_points"]) > 0')" = True ] ||
         fail "inspect --json: infeasible points of a build with a fail region"
     fi
+    # The host called from the main thread only: the threaded build's bytes.
+    run 0 build_ct -- build --host analytic --model bracket --host-options cells=1,fail_region=1 \
+      --max-samples 12 --max-depth 2 --calling-thread -o "$WORK/fail_ct.cadi" &&
+      { cmp -s "$WORK/fail.cadi" "$WORK/fail_ct.cadi" || fail "build --calling-thread: not the threaded build's bytes"; }
     run 1 r_model -- build --host analytic --model nosuchmodel -o "$WORK/x.cadi" &&
       contains r_model err "refused model 'nosuchmodel'"
   else

@@ -2,7 +2,10 @@
 // bindings/python/README.md; cadinterp/_host.py checks and converts what the host returns).
 //
 // GIL and threads: cadinterp_builder_run runs with the GIL released; the builder calls the host
-// from its worker threads, and each callback takes the GIL for as long as it runs Python. The
+// from its worker threads, and each callback takes the GIL for as long as it runs Python. With
+// calling_thread=True (cadinterp_build_options::host_on_calling_thread) the callbacks run on the
+// thread that called build() instead, so the GIL never crosses threads (for hosts bound to their
+// thread, and to keep other Python threads' scheduling as it is). The
 // progress callback runs on the thread that called build(): it takes the GIL too, runs Python's
 // signal handlers there (so Ctrl-C cancels the build cleanly, after the samples in flight) and
 // calls the caller's progress function. A host exception makes that x infeasible with the last
@@ -289,7 +292,7 @@ struct Options {
 py::object build(py::object host, py::object output_path, int degree, double geometry_tolerance,
                  double field_tolerance, int max_samples, int max_depth, int threads,
                  py::object store, double position_max_abs_error, bool simulate_mapped,
-                 int canonical_refinement, py::object progress) {
+                 int canonical_refinement, py::object progress, bool calling_thread) {
   const py::object os = py::module_::import("os");
   const std::string output = py::str(os.attr("fspath")(output_path)).cast<std::string>();
   const std::string store_path =
@@ -316,6 +319,7 @@ py::object build(py::object host, py::object output_path, int degree, double geo
   opt.o.position_max_abs_error = position_max_abs_error;
   opt.o.simulate_mapped = simulate_mapped ? 1 : 0;
   opt.o.canonical_refinement = canonical_refinement;
+  opt.o.host_on_calling_thread = calling_thread ? 1 : 0;
   opt.o.progress = progress_cb;
   opt.o.progress_user = &bridge;
 
@@ -352,10 +356,12 @@ void init_builder(py::module_& m) {
         arg("position_max_abs_error") = o.position_max_abs_error,
         arg("simulate_mapped") = o.simulate_mapped != 0,
         arg("canonical_refinement") = o.canonical_refinement, arg("progress") = py::none(),
+        arg("calling_thread") = o.host_on_calling_thread != 0,
         R"(Precomputes `host` (a Python host, see cadinterp.Host) into the asset `output_path`
 with libcadinterp_builder and returns a cadinterp.BuildReport. The options are those of
 cadinterp_build_options (cadinterp_builder.h), with its defaults but threads=1 (0: one per
-core); store is the sample-store file (resumable builds). progress(dict) is called after each
+core; calling_thread=True: the host only on this thread, threads ignored); store is the
+sample-store file (resumable builds). progress(dict) is called after each
 sample; a true return cancels. Ctrl-C cancels cleanly and raises KeyboardInterrupt. A failed
 build raises the error of its status, with the BuildReport as its `report` attribute.)");
 }

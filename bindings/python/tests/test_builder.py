@@ -245,3 +245,20 @@ def test_callbacks_run_on_worker_threads_with_the_gil(tmp_path):
         t.join()
     assert report.host_evaluations > 0 and threads - {threading.main_thread().ident}
     assert len(ticks) > 0
+
+
+def test_calling_thread_runs_the_host_only_on_this_thread(tmp_path):
+    threads = set()
+
+    class Recording(BoxHost):
+        def regenerate(self, x):
+            threads.add(threading.get_ident())
+            return super().regenerate(x)
+
+    options = dict(geometry_tolerance=1e-3, field_tolerance=1e-2)
+    report = cadinterp.build(Recording(), tmp_path / "c.cadi", threads=4, calling_thread=True,
+                             **options)
+    assert report.host_evaluations > 0
+    assert threads == {threading.get_ident()}
+    cadinterp.build(BoxHost(), tmp_path / "w.cadi", threads=2, **options)
+    assert (tmp_path / "c.cadi").read_bytes() == (tmp_path / "w.cadi").read_bytes()
