@@ -295,6 +295,10 @@ void report_outcome(cadinterp_status s, double wall, cadinterp_builder* builder,
 void check_isolation_args(const ArgParser& p, const BuildArgs& a) {
   if (!a.isolate && (p.seen("sample-timeout") || p.seen("worker-memory")))
     throw UsageError("--sample-timeout and --worker-memory need --isolate");
+  if (a.isolate && a.calling_thread)
+    throw UsageError(
+        "--isolate calls the host in worker processes, --calling-thread on this "
+        "thread: give one of them");
   if (a.isolate && !tools::looks_like_library_path(a.host_spec))
     throw UsageError(
         "--isolate runs the host in worker processes, which load it from a library: "

@@ -167,6 +167,8 @@ def bad_input():
         ("timeout without --isolate", ["build", "--host", ANALYTIC, "--sample-timeout", "1",
                                        "-o", fresh("bad.cadi")], None,
          r"--sample-timeout and --worker-memory need --isolate"),
+        ("with --calling-thread", base + ["--calling-thread"], None,
+         r"--isolate calls the host in worker processes, --calling-thread on this thread"),
         ("built-in host", ["build", "--host", "analytic", "--isolate", "-o", fresh("bad.cadi")],
          None, r"--isolate runs the host in worker processes, which load it from a library"),
     ]
