@@ -1,6 +1,6 @@
 # `cmake --install`: the public headers, libcadinterp (shared and static), libcadinterp_builder,
-# the `cadinterp` tool, the CMake package (cadinterpConfig.cmake, its version file and the
-# exported targets cadinterp::runtime, cadinterp::runtime_static, cadinterp::builder and,
+# the `cadinterp` tool and its host worker, the CMake package (cadinterpConfig.cmake, its version
+# file and the exported targets cadinterp::runtime, cadinterp::runtime_static, cadinterp::builder and,
 # with Ipopt, cadinterp::optimize) and
 # cadinterp.pc. Included last from the top-level CMakeLists.txt, when every target exists; a
 # runtime-only build (no builder) installs the rest. scripts/test-install.sh consumes a staged
@@ -50,6 +50,11 @@ if(TARGET cadinterp_cli)
   file(RELATIVE_PATH _bin_to_lib ${CMAKE_INSTALL_FULL_BINDIR} ${CMAKE_INSTALL_FULL_LIBDIR})
   set_target_properties(cadinterp_cli PROPERTIES INSTALL_RPATH "$ORIGIN/${_bin_to_lib}")
   install(TARGETS cadinterp_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
+endif()
+# `cadinterp build --isolate` runs hosts in this worker, which it finds beside itself.
+if(TARGET cadinterp-host-worker)
+  set_target_properties(cadinterp-host-worker PROPERTIES INSTALL_RPATH "$ORIGIN/${_bin_to_lib}")
+  install(TARGETS cadinterp-host-worker RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
 endif()
 
 install(EXPORT cadinterpTargets NAMESPACE cadinterp:: FILE cadinterpTargets.cmake

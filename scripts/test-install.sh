@@ -34,7 +34,7 @@ LIBDIR=$PREFIX/$(cache CMAKE_INSTALL_LIBDIR)
 if grep -rl -e "$BUILD" -e "$ROOT/src" -e "$ROOT/include" "$LIBDIR/cmake" "$LIBDIR/pkgconfig"; then
   fail "installed package files name the build or source tree"
 fi
-for f in "$LIBDIR"/libcadinterp*.so.*.* "$PREFIX/bin/cadinterp"; do
+for f in "$LIBDIR"/libcadinterp*.so.*.* "$PREFIX/bin/cadinterp" "$PREFIX/bin/cadinterp-host-worker"; do
   [ -e "$f" ] || continue
   if readelf -d "$f" | grep -E 'R(UN)?PATH' | grep -q "$ROOT"; then
     fail "$f has an RPATH into the build tree: $(readelf -d "$f" | grep -E 'R(UN)?PATH')"

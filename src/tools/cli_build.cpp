@@ -17,6 +17,7 @@
 #include "cli_commands.h"
 #include "cli_common.h"
 #include "host_library.h"
+#include "isolated_driver.h"
 
 #ifdef CADINTERP_CLI_HAVE_ANALYTIC
 #include "analytic_host.h"
@@ -125,6 +126,10 @@ struct BuildArgs {
   std::string host_spec, model, host_options, store, output, degree;
   bool quiet = false, simulate_mapped = false, calling_thread = false;
   bool mpi = false;  // --mpi (the MPI block below)
+  // --isolate (isolated_driver.h)
+  bool isolate = false;
+  double sample_timeout = 0;
+  int worker_memory = 0;
 };
 
 void declare_options(ArgParser& p, BuildArgs& a) {
@@ -171,6 +176,19 @@ void declare_options(ArgParser& p, BuildArgs& a) {
       "distributed build under mpirun (at least 2 ranks): rank 0 runs\nthe builder and the "
       "store, ranks 1.. run the host; each rank\nloads --host itself (docs/distributed-builds.md)",
       &a.mpi);
+  // Crash isolation: host calls in worker processes (isolated_driver.h).
+  p.flag("isolate", 0,
+         "run every host call in a worker process (cadinterp-host-worker):\na crash, abort, "
+         "out-of-memory death or timeout is retried once\nin a fresh worker, then makes that "
+         "point infeasible;\n--threads workers (0: 2)",
+         &a.isolate);
+  p.option("sample-timeout", 0, "S",
+           "with --isolate: seconds one host call may take before its\nworker is killed",
+           &a.sample_timeout, 1e-3, 1e9)
+      .show_default("no limit");
+  p.option("worker-memory", 0, "MB", "with --isolate: address-space limit of each worker, in MiB",
+           &a.worker_memory, 16, 1 << 30)
+      .show_default("none");
   p.epilog("A host library is loaded with dlopen; its function " CADINTERP_HOST_ENTRY_NAME
            "(model, options, &error)\nreturns the host (cadinterp_host_entry_fn in "
            "cadinterp_builder.h).\n"
@@ -178,12 +196,14 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            "  cadinterp build --host analytic -o demo.cadi\n"
            "  cadinterp build --host ./libmyhost.so --model bracket --degree 3 \\\n"
            "      --geometry-tol 1e-3 --max-samples 500 --store bracket.db -o bracket.cadi\n"
+           "  cadinterp build --host ./libmyhost.so --isolate --sample-timeout 600 \\\n"
+           "      --worker-memory 8000 -j 4 --store bracket.db -o bracket.cadi\n"
            "  mpirun -np 8 cadinterp build --mpi --host ./libmyhost.so --store b.db -o b.cadi");
 }
 
-/// Runs the build to `output`; the wall time goes to `*wall`.
-cadinterp_status run_cancellable(cadinterp_builder* builder, const std::string& output,
-                                 double* wall) {
+/// Runs the build (`run`, returning its status); the wall time goes to `*wall`.
+template <typename Run>
+cadinterp_status run_cancellable(Run run, double* wall) {
   // SA_RESETHAND: the first Ctrl-C asks for a clean stop, a second one kills as usual.
   struct sigaction sa {
   }, old{};
@@ -192,7 +212,7 @@ cadinterp_status run_cancellable(cadinterp_builder* builder, const std::string& 
   sa.sa_flags = SA_RESETHAND;
   sigaction(SIGINT, &sa, &old);
   const auto t0 = Clock::now();
-  const cadinterp_status s = cadinterp_builder_run(builder, output.c_str());
+  const cadinterp_status s = run();
   *wall = seconds_since(t0);
   sigaction(SIGINT, &old, nullptr);
   return s;
@@ -362,6 +382,48 @@ void print_mpi_summary(const tools::mpi::DriveResult& r) {
       r.wall_seconds > 0 ? 100 * r.cpu_seconds / r.wall_seconds : 0.0);
 }
 #endif
+/// --isolate's options need it, and a host library: a worker loads the host by its path.
+void check_isolation_args(const ArgParser& p, const BuildArgs& a) {
+  if (!a.isolate && (p.seen("sample-timeout") || p.seen("worker-memory")))
+    throw UsageError("--sample-timeout and --worker-memory need --isolate");
+  if (a.isolate && a.mpi)
+    throw UsageError(
+        "--isolate runs the host in worker processes, --mpi on other ranks: give one of them");
+  if (a.isolate && a.calling_thread)
+    throw UsageError(
+        "--isolate calls the host in worker processes, --calling-thread on this "
+        "thread: give one of them");
+  if (a.isolate && !tools::looks_like_library_path(a.host_spec))
+    throw UsageError(
+        "--isolate runs the host in worker processes, which load it from a library: "
+        "give --host the path of a host library (the built-in '" +
+        a.host_spec +
+        "' host has none; the analytic one is "
+        "libcadinterp_host_analytic.so)");
+}
+
+/// The build through worker processes; `*line` gets the isolation summary.
+cadinterp_status run_isolated_build(cadinterp_builder* builder, const cadinterp_host& host,
+                                    const BuildArgs& a, std::string* line) {
+  tools::IsolationOptions io;
+  io.worker.executable = tools::default_worker_executable();
+  io.worker.library = a.host_spec;
+  io.worker.model = a.model;
+  io.worker.options = a.host_options;
+  io.worker.memory_mb = a.worker_memory;
+  io.workers = a.o.threads > 0 ? a.o.threads : 2;
+  io.sample_timeout = a.sample_timeout;
+  io.cancelled = [] { return g_cancel != 0; };
+  tools::IsolationSummary summary;
+  try {
+    const cadinterp_status s = tools::run_isolated(builder, a.output, host, io, &summary);
+    *line = tools::isolation_summary_line(summary);
+    return s;
+  } catch (const tools::WorkerError& e) {
+    throw RuntimeFailure(describe(CADINTERP_E_IO, e.what()));
+  }
+}
+
 }  // namespace
 
 int cmd_build(const std::vector<std::string>& args) {
@@ -395,6 +457,7 @@ int cmd_build(const std::vector<std::string>& args) {
   if (!a.store.empty()) o.store_path = a.store.c_str();
 
   LoadedHost host;
+  check_isolation_args(p, a);
   load_host(a.host_spec, a.model, a.host_options, host);
 
   ProgressState progress;
@@ -417,23 +480,29 @@ int cmd_build(const std::vector<std::string>& args) {
                  a.store.empty() ? "" : (", store " + a.store).c_str());
   }
   double wall = 0;
+  std::string isolation;
 #ifdef CADINTERP_CLI_HAVE_MPI
   tools::mpi::DriveResult mpi_result;
   if (world) {
     s = run_mpi(*world, builder.get(), host.host, a.output, &mpi_result);
     wall = mpi_result.wall_seconds;
-  } else {
-    s = run_cancellable(builder.get(), a.output, &wall);
-  }
-#else
-  s = run_cancellable(builder.get(), a.output, &wall);
+  } else
 #endif
+      if (a.isolate) {
+    s = run_cancellable(
+        [&] { return run_isolated_build(builder.get(), *host.host, a, &isolation); }, &wall);
+  } else {
+    s = run_cancellable([&] { return cadinterp_builder_run(builder.get(), a.output.c_str()); },
+                        &wall);
+  }
   // The bar's last frame may be up to 0.1 s stale: replace it by the outcome below.
   if (progress.line_open) std::fputs("\r\x1b[K", stderr);
+  if (a.isolate && s != CADINTERP_OK) std::fprintf(stderr, "isolation: %s\n", isolation.c_str());
   report_outcome(s, wall, builder.get(), a, progress);
 #ifdef CADINTERP_CLI_HAVE_MPI
   if (world) print_mpi_summary(mpi_result);
 #endif
+  if (a.isolate) std::printf("  isolation          %s\n", isolation.c_str());
   return kExitOk;
 }
 
