@@ -308,6 +308,53 @@ TEST(BuildSession, AbandonedSessionResumesFromItsStore) {
   for (const auto& p : {ref, a, store}) std::filesystem::remove(p);
 }
 
+// The progress callback runs on the threads that call the session (here this one) and cancels
+// it with a nonzero return; what was answered is in the report.
+TEST(BuildSession, ProgressCancelsTheSession) {
+  const cadinterp_host* h = analytic("bracket", "cells=1");
+  ASSERT_NE(h, nullptr);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 40;
+  struct P {
+    std::thread::id owner = std::this_thread::get_id();
+    int calls = 0, foreign = 0;
+  } pu;
+  o.progress_user = &pu;
+  o.progress = [](void* u, const cadinterp_progress* p) {
+    auto* q = static_cast<P*>(u);
+    ++q->calls;
+    if (std::this_thread::get_id() != q->owner) ++q->foreign;
+    return p->samples_done >= 5 ? 1 : 0;
+  };
+  cadinterp_builder* b = nullptr;
+  ASSERT_EQ(cadinterp_builder_create(h, &o, &b), CADINTERP_OK);
+  cadinterp_build_session* s = nullptr;
+  ASSERT_EQ(cadinterp_build_session_create(b, &s), CADINTERP_OK);
+  int answered = 0;
+  for (;;) {
+    cadinterp_build_request r[2];
+    size_t n = 0;
+    int done = 0;
+    ASSERT_EQ(cadinterp_build_session_next_requests(s, r, 2, -1, &n, &done), CADINTERP_OK);
+    if (done) break;
+    for (size_t i = 0; i < n; ++i)
+      if (cadinterp_build_session_submit(s, r[i].id, answer_written(*h, s, r[i])) == CADINTERP_OK)
+        ++answered;
+  }
+  EXPECT_EQ(cadinterp_build_session_finish(s, temp_path("cancelled.cadi").c_str()),
+            CADINTERP_E_CANCELLED);
+  cadinterp_build_session_destroy(s);
+  cadinterp_build_report rep{};
+  rep.struct_size = sizeof rep;
+  ASSERT_EQ(cadinterp_builder_report(b, &rep), CADINTERP_OK);
+  EXPECT_EQ(answered, 5);
+  EXPECT_EQ(rep.host_evaluations, 5);
+  EXPECT_GE(pu.calls, 5);
+  EXPECT_EQ(pu.foreign, 0);
+  cadinterp_builder_destroy(b);
+}
+
 TEST(BuildSession, RefusesBadCallsWithNamedStatuses) {
   const cadinterp_host* h = analytic("bracket", "cells=1");
   ASSERT_NE(h, nullptr);
@@ -387,6 +434,17 @@ TEST(BuildSession, RefusesBadCallsWithNamedStatuses) {
   EXPECT_EQ(cadinterp_builder_run(b, path.c_str()), CADINTERP_OK) << cadinterp_builder_error(b);
   cadinterp_builder_destroy(b);
   std::filesystem::remove(path);
+
+  // A store that cannot be opened fails create itself, and leaves the builder free.
+  const std::string bad_store = temp_path("missing_dir") + "/s.sqlite";
+  o.store_path = bad_store.c_str();
+  ASSERT_EQ(cadinterp_builder_create(h, &o, &b), CADINTERP_OK);
+  s = reinterpret_cast<cadinterp_build_session*>(&o);
+  EXPECT_EQ(cadinterp_build_session_create(b, &s), CADINTERP_E_IO);
+  EXPECT_EQ(s, nullptr);
+  EXPECT_NE(std::string(cadinterp_builder_error(b)), "");
+  EXPECT_EQ(cadinterp_builder_run(b, path.c_str()), CADINTERP_E_IO);  // not refused as busy
+  cadinterp_builder_destroy(b);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 /* Compiled as C99 with -Wpedantic -Werror: both public headers are C-clean together, and the
  * builder library is callable from C. Checks the builder's ABI surface that needs no host run:
- * versions, the status range, create's failure contract, and the report's struct_size. */
+ * versions, the status range, create's failure contract, the report's struct_size, and a build
+ * session's loop driven from C. */
 #include <stddef.h>
 #include <stdio.h>
 #include <string.h>
@@ -28,6 +29,42 @@ static int failures = 0, checks = 0;
       ++failures;                                                        \
     }                                                                    \
   } while (0)
+
+/* The header's session loop in C, every request answered as a failure with a message: the
+ * build then fails with CADINTERP_E_INFEASIBLE and lists that message for every point. */
+static void check_session_loop(cadinterp_builder* builder) {
+  cadinterp_build_session* session = NULL;
+  cadinterp_build_report report;
+  const char* message = NULL;
+  int answered = 0, count = 0;
+  CHECK(cadinterp_build_session_create(builder, &session) == CADINTERP_OK);
+  for (;;) {
+    cadinterp_build_request requests[4];
+    size_t n = 0, i;
+    int done = 0;
+    CHECK(cadinterp_build_session_next_requests(session, requests, 4, -1, &n, &done) ==
+          CADINTERP_OK);
+    if (done) break;
+    for (i = 0; i < n; ++i) {
+      cadinterp_sample* out = NULL;
+      CHECK(requests[i].kind == CADINTERP_REQUEST_SAMPLE && requests[i].parameter_count == 1);
+      CHECK(requests[i].x[0] >= 1.0 && requests[i].x[0] <= 2.0);
+      CHECK(cadinterp_build_session_sample(session, requests[i].id, &out) == CADINTERP_OK);
+      CHECK(cadinterp_sample_set_message(out, "no kernel here") == CADINTERP_OK);
+      CHECK(cadinterp_build_session_submit(session, requests[i].id, CADINTERP_E_INTERNAL) ==
+            CADINTERP_OK);
+      ++answered;
+    }
+  }
+  CHECK(cadinterp_build_session_finish(session, "c99_session.cadi") == CADINTERP_E_INFEASIBLE);
+  cadinterp_build_session_destroy(session);
+  memset(&report, 0, sizeof report);
+  report.struct_size = sizeof report;
+  CHECK(cadinterp_builder_report(builder, &report) == CADINTERP_OK);
+  CHECK(answered >= 2 && report.infeasible_points == answered);
+  CHECK(cadinterp_builder_infeasible_reason(builder, 0, &message, &count) == CADINTERP_OK);
+  CHECK(message != NULL && strcmp(message, "no kernel here") == 0 && count == answered);
+}
 
 int main(void) {
   char expected[32];
@@ -64,6 +101,7 @@ int main(void) {
     host.parameters = &parameter;
     host.regenerate = never_called;
     CHECK(cadinterp_builder_create(&host, &options, &builder) == CADINTERP_OK);
+    check_session_loop(builder);
     cadinterp_builder_destroy(builder);
     options.position_max_abs_error = -1.0;
     CHECK(cadinterp_builder_create(&host, &options, &builder) == CADINTERP_E_INVALID_ARGUMENT);
