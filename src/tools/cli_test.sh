@@ -266,7 +266,7 @@ if ! grep -q "built without" "$WORK/help_explore.out"; then
   # Serves the page, the runtime and the asset's exact bytes with the right types; a second server
   # on the same port fails cleanly; SIGINT stops the first with exit 0.
   python3 - "$CLI" "$A2" "$WORK" <<'EOF' || fail "explore: serving"
-import json, re, signal, subprocess, sys, urllib.error, urllib.request
+import json, re, signal, subprocess, sys, urllib.error, urllib.parse, urllib.request
 cli, asset, work = sys.argv[1:4]
 p = subprocess.Popen([cli, "explore", asset, "--port", "0", "--web-root", work + "/web",
                       "--wasm-dir", work + "/wasm"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -298,6 +298,29 @@ try:
     assert body == open(asset, "rb").read(), "served bytes differ from the file"
     st, ct, body = get("api/asset.json")
     d = json.loads(body)
+    # The optimization endpoint (explore_optimize.h): 501 without Ipopt, else it runs.
+    def optimize(fields=None):
+        data = urllib.parse.urlencode(fields, doseq=True).encode() if fields else None
+        try:
+            with urllib.request.urlopen(url + "api/optimize", data=data, timeout=60) as r:
+                return r.status, json.loads(r.read())
+        except urllib.error.HTTPError as e:
+            return e.code, json.loads(e.read())
+    st, avail = optimize()
+    if st == 200:
+        assert avail["available"] is True, avail
+        st, o = optimize({"objective": "volume", "constraint": ["volume >= 0.1"],
+                          "fix": "twist=0.25", "start": "0.5,0.25"})
+        assert st == 200 and o["parameters"] == ["bend", "twist"], (st, o)
+        assert o["result"]["x"]["twist"] == 0.25 and len(o["result"]["path"]) >= 1, o
+        assert o["result"]["constraints"][0]["value"] >= 0.1 - 1e-6, o
+        st, o = optimize({"objective": "volume + 0.1*mas"})
+        assert st == 400 and o["input"] == "objective" and o["column"] == 14, (st, o)
+        assert "unknown quantity 'mas'" in o["error"], o
+        st, o = optimize({"objective": "volume", "max_iterations": "100000"})
+        assert st == 400 and o["input"] == "max_iterations", (st, o)
+    else:
+        assert st == 501 and avail["available"] is False and "Ipopt" in avail["reason"], (st, avail)
     assert d["name"] == "asset.cadi" and d["bytes"] == len(open(asset, "rb").read()), d
     assert d["parameters"] == 2 and d["verified_elements"] == d["feasible_elements"] >= 1, d
     assert get("no/such/file.js")[0] == 404
