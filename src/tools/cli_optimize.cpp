@@ -104,6 +104,14 @@ const cadinterp_host* load_verify_host(const Args& a, const cadinterp_asset* ass
   if (!mismatch.empty())
     throw UsageError("--verify: the host does not match the asset: " + mismatch +
                      " (give the --model and --host-options the asset was built with)");
+  // The asset records its host's name only (not its options): a different name is worth a
+  // warning, not a refusal (a host may be renamed between releases).
+  cadinterp_provenance prov{};
+  if (cadinterp_asset_provenance(asset, &prov) == CADINTERP_OK && prov.host && host->name &&
+      std::string(prov.host) != host->name)
+    std::fprintf(stderr,
+                 "cadinterp optimize: warning: the asset was built by host '%s', --host is '%s'\n",
+                 prov.host, host->name);
   return host;
 }
 
