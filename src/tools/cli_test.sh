@@ -411,6 +411,12 @@ PY
   run 2 verify_mismatch -- optimize "$WORK/plate.cadi" --minimize volume --verify \
     --host "$HOST_SO" --model bracket &&
     contains verify_mismatch err "the host has 4 parameters (length, height, thickness, bend_angle), the asset 3 (length, width, thickness)"
+  # Same K, other names: a bracket asset checked with the foldplate.
+  run 0 verify_bracket_build -- build --host "$HOST_SO" --model bracket --host-options cells=1 \
+    --max-samples 16 --threads 1 -q -o "$WORK/bracket.cadi" &&
+    run 2 verify_names -- optimize "$WORK/bracket.cadi" --minimize volume --verify \
+      --host "$HOST_SO" --model foldplate &&
+    contains verify_names err "the host has 4 parameters (length, width, thickness, fold), the asset 4 (length, height, thickness, bend_angle)"
   run 2 verify_no_host -- optimize "$WORK/plate.cadi" --minimize volume --verify &&
     contains verify_no_host err "--verify needs --host"
   # A host that fails at x*: every true value is n/a with the host's reason.
