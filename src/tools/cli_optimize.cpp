@@ -4,6 +4,7 @@
 // iteration, then a summary (or JSON). With --verify, the paper's second stage (§7.2): the host
 // regenerates and simulates x*, and the interpolated and true values are printed side by side
 // (optimize_verify.h).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -122,6 +123,25 @@ std::string relative_difference(double interpolated, const TrueValue& t) {
   return t.value != 0 ? fmt("%.3g %%", 100.0 * d / std::fabs(t.value)) : fmt("%.3g (abs)", d);
 }
 
+// Whether `value` meets the constraint "EXPR <= V" (>=, ==: within 1e-6 relative); -1 when the
+// text has no comparison with a number (the parser accepted it, so this does not happen).
+int meets(const std::string& constraint, double value) {
+  for (const char* op : {"<=", ">=", "=="}) {
+    const std::size_t at = constraint.rfind(op);
+    double v = 0;
+    if (at == std::string::npos) continue;
+    std::string rhs = constraint.substr(at + 2);
+    rhs.erase(0, rhs.find_first_not_of(" \t"));
+    rhs.erase(rhs.find_last_not_of(" \t") + 1);
+    if (!parse_double(rhs, &v)) continue;
+    const double slack = 1e-6 * std::max(1.0, std::fabs(v));
+    if (op[0] == '<') return value <= v + slack;
+    if (op[0] == '>') return value >= v - slack;
+    return std::fabs(value - v) <= slack;
+  }
+  return -1;
+}
+
 void print_verification(const Args& a, const cadinterp_optimize_result& r, const Verification& v) {
   std::printf("verify:      the host at x* (%s%s%s): ", a.host.c_str(),
               a.model.empty() ? "" : ", model ", a.model.c_str());
@@ -140,6 +160,8 @@ void print_verification(const Args& a, const cadinterp_optimize_result& r, const
                 t.defined ? fmt("%.9g", t.value).c_str() : "n/a",
                 relative_difference(interp, t).c_str());
     if (!t.defined) std::printf("    n/a: %s\n", t.reason.c_str());
+    if (t.defined && f > 0 && meets(name, t.value) == 0)
+      std::printf("    the host's value does NOT meet this constraint\n");
   }
 }
 
@@ -157,9 +179,11 @@ void write_verification(JsonWriter& w, const Args& a, const cadinterp_optimize_r
     w.field("expression", f == 0 ? a.spec.minimize : a.spec.subject_to[f - 1]);
     w.field("role", f == 0 ? "objective" : "constraint");
     w.field("interpolated", f == 0 ? r.objective : r.constraints[f - 1]);
-    if (v.values[f].defined)
+    if (v.values[f].defined) {
       w.field("true", v.values[f].value);
-    else
+      if (f > 0 && meets(a.spec.subject_to[f - 1], v.values[f].value) >= 0)
+        w.field("true_meets_constraint", meets(a.spec.subject_to[f - 1], v.values[f].value) == 1);
+    } else
       w.key("true").null().field("reason", v.values[f].reason);
     w.end_object();
   }

@@ -392,6 +392,8 @@ d, f = fns("verify_opt")
 L, W, T = d["x"]["length"], d["x"]["width"], d["x"]["thickness"]
 # The host's plate is the box [0, L] x [0, W] x [0, T]: its true volume and area are closed forms.
 assert abs(f[1]["true"] - L * W * T) <= 1e-5 * L * W * T, (f[1], L * W * T)
+assert f[1]["true_meets_constraint"] == (f[1]["true"] >= 20000 * (1 - 1e-6)), f[1]
+assert "true_meets_constraint" not in f[0], f[0]
 area = 2 * (L * W + L * T + W * T)
 assert abs(f[3]["true"] - area) <= 1e-5 * area, (f[3], area)
 for e, g in zip(eps, f):
