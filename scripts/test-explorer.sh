@@ -66,7 +66,7 @@ export EXPLORER_OCCT_HOST=${occt_so:-}
 [ -n "$EXPLORER_OCCT_HOST" ] || echo "test-explorer: no OCCT host in $build: the wrench load-arrow tests are skipped"
 rm -f "$work"/*.cadi  # assets are rebuilt with this cadinterp
 node --test --test-reporter=spec $explorer/test/surface.test.mjs $explorer/test/e2e.test.mjs \
-  $explorer/test/loads.test.mjs
+  $explorer/test/loads.test.mjs $explorer/test/optimize.test.mjs
 echo "screenshots: $EXPLORER_SCREENSHOT_DIR"
 
 if [ "$fps" = 1 ]; then

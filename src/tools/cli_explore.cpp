@@ -171,6 +171,7 @@ int cmd_explore(const std::vector<std::string>& args) {
   o.asset_name = name;
   o.asset_bytes = &bytes;
   o.asset_summary_json = summary;
+  o.asset = asset.get();
   ExploreListening listening{path};
   try {
     run_explore_server(o, print_explore_url, &listening);

@@ -1,7 +1,10 @@
 // `cadinterp optimize`: shape optimization on an asset's interpolant with Ipopt, through the
 // public C ABI of libcadinterp_optimize (cadinterp_optimize.h): objective and constraints in its
 // expression language, fixed parameters, start point, multi-start; a progress line per
-// iteration, then a summary (or JSON).
+// iteration, then a summary (or JSON). With --verify, the paper's second stage (§7.2): the host
+// regenerates and simulates x*, and the interpolated and true values are printed side by side
+// (optimize_verify.h).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -14,63 +17,31 @@
 #include "cli_commands.h"
 #include "cli_common.h"
 #include "json_writer.h"
+#include "optimize_setup.h"
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+#include "host_library.h"
+#include "optimize_verify.h"
+#endif
 
 namespace cadinterp::cli {
 namespace {
 
-struct ProblemDestroyer {
-  void operator()(cadinterp_optimize_problem* p) const { cadinterp_optimize_destroy(p); }
-};
-using ProblemPtr = std::unique_ptr<cadinterp_optimize_problem, ProblemDestroyer>;
-
 struct Args {
-  std::string asset, minimize, fix, start;
-  std::vector<std::string> subject_to;
-  int multistart = 1, max_iterations = 200;
-  double tolerance = 1e-6;
+  OptimizeSpec spec;
+  std::string asset, start;
   bool json = false, quiet = false;
+  bool verify = false;
+  std::string host, model, host_options;
 };
 
-std::vector<std::string> parameter_names(const cadinterp_asset* a) {
-  std::vector<std::string> out;
-  for (int i = 0; i < cadinterp_parameter_count(a); ++i) {
-    cadinterp_parameter_info p{};
-    cadinterp_parameter(a, i, &p);
-    out.push_back(p.name);
-  }
-  return out;
-}
-
-// An expression error as a usage error: the option, the message, the text and a caret under
-// the offending column ("column C: ...").
-[[noreturn]] void expression_error(const std::string& option, const std::string& text,
-                                   const std::string& message) {
-  std::string out = option + ": " + message + "\n  " + text;
-  int column = 0;
-  if (std::sscanf(message.c_str(), "column %d", &column) == 1 && column >= 1)
-    out += "\n  " + std::string(static_cast<std::size_t>(column - 1), ' ') + "^";
+// A SpecError as a usage error: the option, the message, the text and a caret under the
+// offending column.
+[[noreturn]] void usage_error(const SpecError& e) {
+  std::string out = e.input + ": " + e.what();
+  if (!e.text.empty()) out += "\n  " + e.text;
+  if (e.column >= 1 && !e.text.empty())
+    out += "\n  " + std::string(static_cast<std::size_t>(e.column - 1), ' ') + "^";
   throw UsageError(out);
-}
-
-// --fix name=value,...: each parameter's range becomes that value.
-void apply_fixes(cadinterp_optimize_problem* p, const std::string& spec,
-                 const std::vector<std::string>& names) {
-  for (const std::string& item : split_list(spec)) {
-    const std::size_t eq = item.find('=');
-    double v = 0;
-    if (eq == std::string::npos || !parse_double(item.substr(eq + 1), &v))
-      throw UsageError("--fix: expected name=value, got '" + item + "'");
-    const std::string name = item.substr(0, eq);
-    int i = 0;
-    while (i < static_cast<int>(names.size()) && names[static_cast<std::size_t>(i)] != name) ++i;
-    if (i == static_cast<int>(names.size())) {
-      std::string all;
-      for (const std::string& n : names) all += (all.empty() ? "" : ", ") + n;
-      throw UsageError("--fix: the asset has no parameter '" + name + "' (it has " + all + ")");
-    }
-    if (cadinterp_optimize_set_bounds(p, i, v, v) != CADINTERP_OK)
-      throw UsageError("--fix: " + std::string(cadinterp_optimize_error(p)));
-  }
 }
 
 struct Progress {
@@ -93,10 +64,10 @@ int print_progress(void* user, int start, int iteration, const double* x, double
 void print_text(const Args& a, const cadinterp_optimize_result& r,
                 const std::vector<std::string>& names) {
   std::printf("status:      %s%s\n", r.status, r.converged ? "" : " (not converged)");
-  std::printf("objective:   %.9g   (minimize %s)\n", r.objective, a.minimize.c_str());
+  std::printf("objective:   %.9g   (minimize %s)\n", r.objective, a.spec.minimize.c_str());
   for (int j = 0; j < r.constraint_count; ++j)
     std::printf("constraint:  %.9g   (%s)\n", r.constraints[j],
-                a.subject_to[static_cast<std::size_t>(j)].c_str());
+                a.spec.subject_to[static_cast<std::size_t>(j)].c_str());
   if (r.constraint_count)
     std::printf("violation:   %.3g%s\n", r.constraint_violation,
                 r.constraint_violation > 1e-6 ? "  (constraints NOT met)" : "");
@@ -118,51 +89,110 @@ void print_text(const Args& a, const cadinterp_optimize_result& r,
   if (r.linear_asset) std::printf("note:        %s\n", r.note);
 }
 
-void print_json(const Args& a, const cadinterp_optimize_result& r,
-                const std::vector<std::string>& names) {
-  std::string out;
-  JsonWriter w(out);
-  w.begin_object();
-  w.field("status", r.status).field("ipopt_status", r.ipopt_status);
-  w.field("converged", r.converged != 0);
-  w.field("objective_expression", a.minimize).field("objective", r.objective);
-  w.key("constraints").begin_array();
-  for (int j = 0; j < r.constraint_count; ++j) {
-    w.begin_object();
-    w.field("expression", a.subject_to[static_cast<std::size_t>(j)])
-        .field("value", r.constraints[j]);
-    w.end_object();
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+// The host named by --host, checked against the asset before any work: a library that cannot be
+// loaded or refuses the model is a runtime failure (exit 1), other parameters a usage error.
+const cadinterp_host* load_verify_host(const Args& a, const cadinterp_asset* asset,
+                                       tools::HostLibrary& library) {
+  if (a.host.empty()) throw UsageError("--verify needs --host LIB.so (and usually --model)");
+  const cadinterp_host* host = nullptr;
+  try {
+    host = library.load(a.host, a.model, a.host_options);
+  } catch (const tools::HostLoadError& e) {
+    throw RuntimeFailure(describe(e.status, e.what()));
   }
-  w.end_array();
-  w.field("constraint_violation", r.constraint_violation);
-  w.key("x").begin_object();
-  for (int i = 0; i < r.parameter_count; ++i) w.field(names[static_cast<std::size_t>(i)], r.x[i]);
-  w.end_object();
-  w.field("gradient_norm", r.gradient_norm).field("optimality", r.optimality);
-  w.field("iterations", r.iterations).field("evaluations", r.evaluations);
-  w.field("refused_evaluations", r.refused_evaluations);
-  w.field("starts", r.starts).field("best_start", r.best_start);
-  w.field("error_estimate", r.error_estimate);
-  w.field("linear_asset", r.linear_asset != 0).field("note", r.note);
-  w.key("path").begin_array();
-  for (int k = 0; k < r.path_length; ++k) {
-    w.begin_object();
-    w.field("objective", r.path_objective[k]);
-    w.key("x").begin_array();
-    for (int i = 0; i < r.parameter_count; ++i)
-      w.value(r.path[static_cast<std::size_t>(k * r.parameter_count + i)]);
-    w.end_array();
-    w.end_object();
-  }
-  w.end_array();
-  w.end_object();
-  std::printf("%s\n", out.c_str());
+  const std::string mismatch = parameter_mismatch(*host, asset);
+  if (!mismatch.empty())
+    throw UsageError("--verify: the host does not match the asset: " + mismatch +
+                     " (give the --model and --host-options the asset was built with)");
+  // The asset records its host's name only (not its options): a different name is worth a
+  // warning, not a refusal (a host may be renamed between releases).
+  cadinterp_provenance prov{};
+  if (cadinterp_asset_provenance(asset, &prov) == CADINTERP_OK && prov.host && host->name &&
+      std::string(prov.host) != host->name)
+    std::fprintf(stderr,
+                 "cadinterp optimize: warning: the asset was built by host '%s', --host is '%s'\n",
+                 prov.host, host->name);
+  return host;
 }
 
-}  // namespace
+// Relative difference |true - interpolated| / |true| in percent, "n/a" without a true value.
+std::string relative_difference(double interpolated, const TrueValue& t) {
+  if (!t.defined) return "n/a";
+  const double d = std::fabs(t.value - interpolated);
+  return t.value != 0 ? fmt("%.3g %%", 100.0 * d / std::fabs(t.value)) : fmt("%.3g (abs)", d);
+}
 
-int cmd_optimize(const std::vector<std::string>& args) {
-  Args a;
+// Whether `value` meets the constraint "EXPR <= V" (>=, ==: within 1e-6 relative); -1 when the
+// text has no comparison with a number (the parser accepted it, so this does not happen).
+int meets(const std::string& constraint, double value) {
+  for (const char* op : {"<=", ">=", "=="}) {
+    const std::size_t at = constraint.rfind(op);
+    double v = 0;
+    if (at == std::string::npos) continue;
+    std::string rhs = constraint.substr(at + 2);
+    rhs.erase(0, rhs.find_first_not_of(" \t"));
+    rhs.erase(rhs.find_last_not_of(" \t") + 1);
+    if (!parse_double(rhs, &v)) continue;
+    const double slack = 1e-6 * std::max(1.0, std::fabs(v));
+    if (op[0] == '<') return value <= v + slack;
+    if (op[0] == '>') return value >= v - slack;
+    return std::fabs(value - v) <= slack;
+  }
+  return -1;
+}
+
+void print_verification(const Args& a, const cadinterp_optimize_result& r, const Verification& v) {
+  std::printf("verify:      the host at x* (%s%s%s): ", a.host.c_str(),
+              a.model.empty() ? "" : ", model ", a.model.c_str());
+  if (!v.feasible) {
+    std::printf("FAILED: %s\n", v.message.c_str());
+    return;
+  }
+  std::printf("%zu vertices, %zu tets, %s\n", v.vertices, v.tets,
+              human_seconds(v.host_seconds).c_str());
+  std::printf("  %-40s %16s %16s %12s\n", "function", "interpolated", "true (host)", "difference");
+  for (std::size_t f = 0; f < v.values.size(); ++f) {
+    const std::string name = f == 0 ? "minimize " + a.spec.minimize : a.spec.subject_to[f - 1];
+    const double interp = f == 0 ? r.objective : r.constraints[f - 1];
+    const TrueValue& t = v.values[f];
+    std::printf("  %-40s %16.9g %16s %12s\n", name.c_str(), interp,
+                t.defined ? fmt("%.9g", t.value).c_str() : "n/a",
+                relative_difference(interp, t).c_str());
+    if (!t.defined) std::printf("    n/a: %s\n", t.reason.c_str());
+    if (t.defined && f > 0 && meets(name, t.value) == 0)
+      std::printf("    the host's value does NOT meet this constraint\n");
+  }
+}
+
+void write_verification(JsonWriter& w, const Args& a, const cadinterp_optimize_result& r,
+                        const Verification& v) {
+  w.key("verify").begin_object();
+  w.field("host", a.host).field("model", a.model).field("feasible", v.feasible);
+  if (!v.feasible) w.field("message", v.message);
+  w.field("host_seconds", v.host_seconds);
+  w.field("vertices", static_cast<std::uint64_t>(v.vertices));
+  w.field("tets", static_cast<std::uint64_t>(v.tets));
+  w.key("functions").begin_array();
+  for (std::size_t f = 0; f < v.values.size(); ++f) {
+    w.begin_object();
+    w.field("expression", f == 0 ? a.spec.minimize : a.spec.subject_to[f - 1]);
+    w.field("role", f == 0 ? "objective" : "constraint");
+    w.field("interpolated", f == 0 ? r.objective : r.constraints[f - 1]);
+    if (v.values[f].defined) {
+      w.field("true", v.values[f].value);
+      if (f > 0 && meets(a.spec.subject_to[f - 1], v.values[f].value) >= 0)
+        w.field("true_meets_constraint", meets(a.spec.subject_to[f - 1], v.values[f].value) == 1);
+    } else
+      w.key("true").null().field("reason", v.values[f].reason);
+    w.end_object();
+  }
+  w.end_array();
+  w.end_object();
+}
+#endif
+
+void parse_args(const std::vector<std::string>& args, Args& a, bool* go) {
   ArgParser p("cadinterp optimize",
               "ASSET --minimize EXPR [--subject-to 'EXPR <= V' ...] [options]",
               "Minimizes a quantity of the interpolated shape over the asset's parameter box with\n"
@@ -170,18 +200,26 @@ int cmd_optimize(const std::vector<std::string>& args) {
               "(infeasible elements) and the box edge are walls.");
   p.positional("ASSET", "the asset file (.cadi)", &a.asset);
   p.option("minimize", 0, "EXPR", "the objective, e.g. 'integral(von_mises) + 0.1*mass'",
-           &a.minimize)
+           &a.spec.minimize)
       .required();
   p.repeated("subject-to", 0, "'EXPR <= V'", "a constraint: EXPR <= V, EXPR >= V or EXPR == V",
-             &a.subject_to);
-  p.option("fix", 0, "NAME=V,...", "fix parameters at values", &a.fix);
+             &a.spec.subject_to);
+  p.option("fix", 0, "NAME=V,...", "fix parameters at values", &a.spec.fix);
   p.option("start", 0, "V1,V2,...", "start point, K values (default: the box centre)", &a.start);
   p.option("multistart", 0, "N", "N deterministic starts (Halton points), keep the best",
-           &a.multistart, 1, 1000);
-  p.option("max-iterations", 0, "N", "Ipopt iterations per start", &a.max_iterations, 0, 100000);
-  p.option("tolerance", 0, "T", "Ipopt's tol", &a.tolerance, 1e-12, 1.0);
+           &a.spec.multistart, 1, 1000);
+  p.option("max-iterations", 0, "N", "Ipopt iterations per start", &a.spec.max_iterations, 0,
+           100000);
+  p.option("tolerance", 0, "T", "Ipopt's tol", &a.spec.tolerance, 1e-12, 1.0);
   p.flag("json", 0, "print JSON (with the path of iterates) instead of text", &a.json);
   p.flag("quiet", 'q', "no progress line per iteration", &a.quiet);
+  p.flag("verify", 0,
+         "regenerate and simulate x* with the host (--host) and print the\n"
+         "interpolated and the true objective and constraints side by side",
+         &a.verify);
+  p.option("host", 0, "LIB.so", "--verify: the host library the asset was built with", &a.host);
+  p.option("model", 'm', "NAME", "--verify: the host's model", &a.model);
+  p.option("host-options", 0, "K=V,...", "--verify: the host's settings", &a.host_options);
   p.epilog(
       "expressions: sums of [WEIGHT*]QUANTITY with + and -. Quantities: volume, area,\n"
       "  mass[(density)], frontal_area[(dx,dy,dz)], centroid_x|y|z, inertia_xx..zz[(density)],\n"
@@ -190,42 +228,48 @@ int cmd_optimize(const std::vector<std::string>& args) {
       "  field's maximum: p-norm, default p=8, or Kreisselmeier-Steinhauser).\n"
       "example:\n"
       "  cadinterp optimize press.cadi --minimize 'integral(von_mises)' \\\n"
-      "      --subject-to 'mass(7.85e-9) <= 12' --fix height=200,width=120\n"
-      "The interpolated optimum is not re-simulated with the host: check it with the host\n"
-      "(`cadinterp eval` shows the interpolant at x*).");
-  if (!p.parse(args)) return kExitOk;
+      "      --subject-to 'mass(7.85e-9) <= 12' --fix height=200,width=120 \\\n"
+      "      --verify --host ./libpress_host.so --model press\n"
+      "--verify measures the same expressions on the host's own mesh and fields at x*, with the\n"
+      "runtime's definitions; a quantity the host does not return is reported as n/a.");
+  *go = p.parse(args);
+  if (!*go) return;
+  for (const std::string& v : split_list(a.start)) {
+    double d = 0;
+    if (!parse_double(v, &d)) throw UsageError("--start: '" + v + "' is not a number");
+    a.spec.start.push_back(d);
+  }
+  if (!a.verify && (!a.host.empty() || !a.model.empty() || !a.host_options.empty()))
+    throw UsageError("--host, --model and --host-options are for --verify");
+}
+
+}  // namespace
+
+int cmd_optimize(const std::vector<std::string>& args) {
+  Args a;
+  bool go = false;
+  parse_args(args, a, &go);
+  if (!go) return kExitOk;
 
   const AssetPtr asset = open_asset(a.asset);
   const std::vector<std::string> names = parameter_names(asset.get());
-  cadinterp_optimize_problem* raw = nullptr;
-  if (cadinterp_optimize_create(asset.get(), &raw) != CADINTERP_OK)
-    throw RuntimeFailure("cannot create the problem (out of memory)");
-  const ProblemPtr problem(raw);
-  cadinterp_optimize_problem* pr = problem.get();
-  if (cadinterp_optimize_parse(pr, 0, a.minimize.c_str()) != CADINTERP_OK)
-    expression_error("--minimize", a.minimize, cadinterp_optimize_error(pr));
-  for (const std::string& c : a.subject_to)
-    if (cadinterp_optimize_parse_constraint(pr, c.c_str(), nullptr) != CADINTERP_OK)
-      expression_error("--subject-to", c, cadinterp_optimize_error(pr));
-  if (!a.fix.empty()) apply_fixes(pr, a.fix, names);
-  std::vector<double> start;
-  if (!a.start.empty()) {
-    for (const std::string& v : split_list(a.start)) {
-      double d = 0;
-      if (!parse_double(v, &d)) throw UsageError("--start: '" + v + "' is not a number");
-      start.push_back(d);
-    }
-    if (start.size() != names.size())
-      throw UsageError(
-          fmt("--start: the asset has %zu parameters, got %zu values", names.size(), start.size()));
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+  tools::HostLibrary library;
+  const cadinterp_host* host = a.verify ? load_verify_host(a, asset.get(), library) : nullptr;
+#else
+  if (a.verify)
+    throw RuntimeFailure(
+        "--verify needs the builder's host adapter, which this build of cadinterp does not have");
+#endif
+  ProblemPtr problem;
+  try {
+    problem = make_problem(asset.get(), a.spec);
+  } catch (const SpecError& e) {
+    usage_error(e);
   }
+  cadinterp_optimize_problem* pr = problem.get();
   Progress progress{a.quiet || a.json, names};
-  cadinterp_optimize_options o;
-  cadinterp_optimize_options_init(&o);
-  o.start = start.empty() ? nullptr : start.data();
-  o.multistart = a.multistart;
-  o.max_iterations = a.max_iterations;
-  o.tolerance = a.tolerance;
+  cadinterp_optimize_options o = solve_options(a.spec);
   o.progress = &print_progress;
   o.progress_user = &progress;
   cadinterp_optimize_result r{};
@@ -233,10 +277,33 @@ int cmd_optimize(const std::vector<std::string>& args) {
   const cadinterp_status s = cadinterp_optimize_solve(pr, &o, &r);
   if (s == CADINTERP_E_INVALID_ARGUMENT) throw UsageError(cadinterp_optimize_error(pr));
   if (s != CADINTERP_OK) throw RuntimeFailure(describe(s, cadinterp_optimize_error(pr)));
-  if (a.json)
-    print_json(a, r, names);
-  else
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+  Verification v;
+  if (host) {
+    try {
+      v = verify_with_host(*host, r.x, a.spec);
+    } catch (const std::invalid_argument& e) {
+      throw RuntimeFailure(
+          describe(CADINTERP_E_INVALID_ARGUMENT, std::string("--verify: ") + e.what()));
+    }
+  }
+#endif
+  if (a.json) {
+    std::string out;
+    JsonWriter w(out);
+    w.begin_object();
+    write_result_members(w, a.spec, r, names);
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+    if (host) write_verification(w, a, r, v);
+#endif
+    w.end_object();
+    std::printf("%s\n", out.c_str());
+  } else {
     print_text(a, r, names);
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+    if (host) print_verification(a, r, v);
+#endif
+  }
   return kExitOk;
 }
 

@@ -271,7 +271,7 @@ if ! grep -q "built without" "$WORK/help_explore.out"; then
   # Serves the page, the runtime and the asset's exact bytes with the right types; a second server
   # on the same port fails cleanly; SIGINT stops the first with exit 0.
   python3 - "$CLI" "$A2" "$WORK" <<'EOF' || fail "explore: serving"
-import json, re, signal, subprocess, sys, urllib.error, urllib.request
+import json, re, signal, subprocess, sys, urllib.error, urllib.parse, urllib.request
 cli, asset, work = sys.argv[1:4]
 p = subprocess.Popen([cli, "explore", asset, "--port", "0", "--web-root", work + "/web",
                       "--wasm-dir", work + "/wasm"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -303,6 +303,29 @@ try:
     assert body == open(asset, "rb").read(), "served bytes differ from the file"
     st, ct, body = get("api/asset.json")
     d = json.loads(body)
+    # The optimization endpoint (explore_optimize.h): 501 without Ipopt, else it runs.
+    def optimize(fields=None):
+        data = urllib.parse.urlencode(fields, doseq=True).encode() if fields else None
+        try:
+            with urllib.request.urlopen(url + "api/optimize", data=data, timeout=60) as r:
+                return r.status, json.loads(r.read())
+        except urllib.error.HTTPError as e:
+            return e.code, json.loads(e.read())
+    st, avail = optimize()
+    if st == 200:
+        assert avail["available"] is True, avail
+        st, o = optimize({"objective": "volume", "constraint": ["volume >= 0.1"],
+                          "fix": "twist=0.25", "start": "0.5,0.25"})
+        assert st == 200 and o["parameters"] == ["bend", "twist"], (st, o)
+        assert o["result"]["x"]["twist"] == 0.25 and len(o["result"]["path"]) >= 1, o
+        assert o["result"]["constraints"][0]["value"] >= 0.1 - 1e-6, o
+        st, o = optimize({"objective": "volume + 0.1*mas"})
+        assert st == 400 and o["input"] == "objective" and o["column"] == 14, (st, o)
+        assert "unknown quantity 'mas'" in o["error"], o
+        st, o = optimize({"objective": "volume", "max_iterations": "100000"})
+        assert st == 400 and o["input"] == "max_iterations", (st, o)
+    else:
+        assert st == 501 and avail["available"] is False and "Ipopt" in avail["reason"], (st, avail)
     assert d["name"] == "asset.cadi" and d["bytes"] == len(open(asset, "rb").read()), d
     assert d["parameters"] == 2 and d["verified_elements"] == d["feasible_elements"] >= 1, d
     assert get("no/such/file.js")[0] == 404
@@ -338,6 +361,78 @@ if run 0 help_optimize -- optimize --help && ! grep -q "built without" "$WORK/he
   # The infeasible corner is a wall: a start inside it is refused, a run ends outside it.
   run 1 opt_wall_start -- optimize "$VALID/k2_infeasible/asset.cadi" --minimize volume \
     --start 0.95,0.95 && contains opt_wall_start err "CADINTERP_E_INFEASIBLE"
+fi
+
+# ---- optimize --verify: the optimum re-simulated by the host library ---------------------------
+if [ -n "$HOST_SO" ] && grep -q -- "--verify" "$WORK/help_optimize.out" &&
+   run 0 verify_plate_build -- build --host "$HOST_SO" --model plate --host-options edge=10 \
+     --max-samples 60 --threads 1 -q -o "$WORK/plate.cadi"; then
+  VH=(--verify --host "$HOST_SO" --model plate --host-options edge=10)
+  OBJ='integral(von_mises)'
+  CON=('volume >= 20000' 'max(von_mises) <= 1000' 'area <= 1e5')
+  SUBJ=()
+  for c in "${CON[@]}"; do SUBJ+=(--subject-to "$c"); done
+  # The interpolation's accuracy on these functions: interpolated vs the host's values at six
+  # points (no iterations: x* is the start), then at the optimum.
+  i=0
+  for start in 45,25,8 95,55,8 60,35,8 80,50,8 50,58,8 90,22,8; do
+    run 0 "verify_cal$i" -- optimize "$WORK/plate.cadi" --minimize "$OBJ" "${SUBJ[@]}" \
+      --fix thickness=8 --start "$start" --max-iterations 0 --json "${VH[@]}"
+    i=$((i + 1))
+  done
+  run 0 verify_opt -- optimize "$WORK/plate.cadi" --minimize "$OBJ" "${SUBJ[@]}" \
+    --fix thickness=8 --json "${VH[@]}"
+  python3 - "$WORK" <<'PY' || fail "verify_opt: true values outside the interpolation's accuracy"
+import json, sys
+work = sys.argv[1]
+def fns(name):
+    d = json.load(open(f"{work}/{name}.out"))
+    assert d["verify"]["feasible"], d["verify"]
+    return d, d["verify"]["functions"]
+eps = [0.0] * 4
+for i in range(6):
+    _, f = fns(f"verify_cal{i}")
+    eps = [max(e, abs(g["true"] - g["interpolated"])) for e, g in zip(eps, f)]
+d, f = fns("verify_opt")
+L, W, T = d["x"]["length"], d["x"]["width"], d["x"]["thickness"]
+# The host's plate is the box [0, L] x [0, W] x [0, T]: its true volume and area are closed forms.
+assert abs(f[1]["true"] - L * W * T) <= 1e-5 * L * W * T, (f[1], L * W * T)
+assert f[1]["true_meets_constraint"] == (f[1]["true"] >= 20000 * (1 - 1e-6)), f[1]
+assert "true_meets_constraint" not in f[0], f[0]
+area = 2 * (L * W + L * T + W * T)
+assert abs(f[3]["true"] - area) <= 1e-5 * area, (f[3], area)
+for e, g in zip(eps, f):
+    err = abs(g["true"] - g["interpolated"])
+    print(f'{g["expression"]}: interpolated {g["interpolated"]:.6g}, true {g["true"]:.6g}, '
+          f'|difference| {err:.3g}, accuracy measured at 6 points {e:.3g}')
+    assert err <= 3 * e + 1e-6 * abs(g["true"]), (g, e)
+PY
+  run 0 verify_text -- optimize "$WORK/plate.cadi" --minimize "$OBJ" --fix thickness=8 -q "${VH[@]}" &&
+    contains verify_text out "true (host)" && contains verify_text out "minimize integral(von_mises)"
+  # Failures, each before the optimization runs.
+  run 1 verify_bad_path -- optimize "$WORK/plate.cadi" --minimize volume --verify \
+    --host "$WORK/no/such/libhost.so" && contains verify_bad_path err "CADINTERP_E_IO" &&
+    contains verify_bad_path err "cannot load host library"
+  run 1 verify_bad_model -- optimize "$WORK/plate.cadi" --minimize volume --verify \
+    --host "$HOST_SO" --model gear && contains verify_bad_model err "refused model 'gear'"
+  run 2 verify_mismatch -- optimize "$WORK/plate.cadi" --minimize volume --verify \
+    --host "$HOST_SO" --model bracket &&
+    contains verify_mismatch err "the host has 4 parameters (length, height, thickness, bend_angle), the asset 3 (length, width, thickness)"
+  # Same K, other names: a bracket asset checked with the foldplate.
+  run 0 verify_bracket_build -- build --host "$HOST_SO" --model bracket --host-options cells=1 \
+    --max-samples 16 --threads 1 -q -o "$WORK/bracket.cadi" &&
+    run 2 verify_names -- optimize "$WORK/bracket.cadi" --minimize volume --verify \
+      --host "$HOST_SO" --model foldplate &&
+    contains verify_names err "the host has 4 parameters (length, width, thickness, fold), the asset 4 (length, height, thickness, bend_angle)"
+  run 2 verify_no_host -- optimize "$WORK/plate.cadi" --minimize volume --verify &&
+    contains verify_no_host err "--verify needs --host"
+  # A host that fails at x*: every true value is n/a with the host's reason.
+  run 0 verify_fails -- optimize "$WORK/plate.cadi" --minimize volume --start 95,55,8 \
+    --max-iterations 0 --json --verify --host "$HOST_SO" --model plate \
+    --host-options edge=10,fail_region=1 &&
+    [ "$(json_get "$WORK/verify_fails.out" \
+      'd["verify"]["feasible"] is False and d["verify"]["functions"][0]["true"] is None and "fail" in d["verify"]["functions"][0]["reason"]')" = True ] ||
+    fail "verify_fails: expected an infeasible verification with n/a values"
 fi
 
 if [ "$failures" -ne 0 ]; then

@@ -1,12 +1,15 @@
 // `cadinterp explore`'s embedded HTTP server (cpp-httplib). Routes:
 //   /api/asset.cadi   the validated asset bytes (from memory)
 //   /api/asset.json   name, size and the native runtime's summary
+//   /api/optimize     GET: whether the optimizer is available; POST: run it (explore_optimize.h)
 //   /wasm/...         the WebAssembly runtime (scripts/build-wasm.sh output)
 //   /...              the built explorer page
 // Everything is sent with Cache-Control: no-store: this is a local tool whose asset and page
 // change between runs on the same port, and a stale cached asset would silently show another
 // model.
 #include "explore_server.h"
+
+#include "explore_optimize.h"
 
 #include <httplib.h>
 #include <pthread.h>
@@ -101,6 +104,18 @@ int run_explore_server(const ExploreServerOptions& o,
   const std::string summary = o.asset_summary_json;
   server.Get("/api/asset.json", [summary](const httplib::Request&, httplib::Response& res) {
     res.set_content(summary, "application/json");
+  });
+  server.Get("/api/optimize", [](const httplib::Request&, httplib::Response& res) {
+    const HttpReply r = optimize_capabilities();
+    res.status = r.status;
+    res.set_content(r.body, "application/json");
+  });
+  const cadinterp_asset* asset = o.asset;
+  server.Post("/api/optimize", [asset](const httplib::Request& req, httplib::Response& res) {
+    // Form fields: httplib parses an application/x-www-form-urlencoded body into params.
+    const HttpReply r = optimize_request(asset, req.params);
+    res.status = r.status;
+    res.set_content(r.body, "application/json");
   });
   server.set_logger([](const httplib::Request& req, const httplib::Response& res) {
     if (res.status >= 400)

@@ -1,11 +1,14 @@
 // The HTTP side of `cadinterp explore`: serves the explorer page, the WebAssembly runtime and the
-// asset's bytes to a browser, which does all the evaluation itself (the page runs the asset
-// through the wasm runtime; the server never evaluates anything after validation).
+// asset's bytes to a browser, which does all the exploration itself (the page runs the asset
+// through the wasm runtime). The one thing the server computes is an optimization on request
+// (the page's Optimize panel: explore_optimize.h), which needs Ipopt.
 #pragma once
 
 #include <cstdint>
+
 #include <string>
 #include <vector>
+#include "cadinterp/cadinterp.h"
 
 namespace cadinterp::cli {
 
@@ -19,6 +22,9 @@ struct ExploreServerOptions {
   /// an asset rewritten while the server runs cannot reach the page unvalidated).
   const std::vector<std::uint8_t>* asset_bytes = nullptr;
   std::string asset_summary_json;  ///< /asset.json: what the native runtime reported
+  /// The same asset opened by the native runtime, for /api/optimize (explore_optimize.h); it
+  /// must outlive the server.
+  const cadinterp_asset* asset = nullptr;
 };
 
 /// MIME type by file name extension (lower case), "application/octet-stream" if unknown.

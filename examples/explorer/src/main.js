@@ -11,6 +11,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { Surface, fieldMax, fieldRange, infeasibleRuns, propertiesAndRanges } from './surface.js';
 import { colorize, cssColor } from './colormap.js';
+import { OptimizePanel } from './optimize-panel.js';
 
 // The test hook (scripts/test-explorer.sh drives the page through it; harmless otherwise).
 const hook = { ready: false, error: null };
@@ -117,7 +118,16 @@ class Explorer {
     this.syncSliders();
     this.update();
     this.loop();
+    this.optimizer = new OptimizePanel(this);
     this.installHook();
+    this.optimizer.probe();
+  }
+
+  /** Moves every slider to x (the Optimize panel's iterates); drawn on the next frame. */
+  moveTo(x) {
+    this.x.set(x);
+    this.syncSliders();
+    this.pending = true;
   }
 
   /** The box centre, or when that is infeasible (an infeasible element may hold it: points on
@@ -166,6 +176,7 @@ class Explorer {
         this.x[i] = Number(input.value);
         this.sliders[i].value.textContent = fmt(this.x[i], 5);
         this.pending = true;
+        this.optimizer?.showFixedValues();
       });
       box.appendChild(el);
       return { el, input, value: el.querySelector('.value'), marks: el.querySelector('.marks'), runs: [] };
@@ -177,6 +188,7 @@ class Explorer {
       s.input.value = String(this.x[i]);
       s.value.textContent = fmt(this.x[i], 5);
     });
+    this.optimizer?.showFixedValues();
   }
 
   buildFieldControls() {
@@ -983,6 +995,8 @@ class Explorer {
           };
           requestAnimationFrame(step);
         }),
+      /** The Optimize panel: availability, the last result or error, whether it runs. */
+      optimizer: () => this.optimizer.state(),
       frames: () => this.frames ?? 0,
       antialias: this.renderer.getContext().getContextAttributes().antialias,
       ready: true,
