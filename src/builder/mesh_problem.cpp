@@ -21,6 +21,7 @@ FieldSignature FieldSignature::of(const Sample& s) {
     f.locations.push_back(x.location);
     f.components.push_back(x.components);
   }
+  for (const mesh::Output& o : s.outputs) f.outputs.push_back(o.name);
   return f;
 }
 
@@ -79,7 +80,7 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
         signature_ = sig;
       } else if (!(sig == *signature_)) {
         auto bad = std::make_shared<Sample>();
-        bad->message = "the host's fields differ from those of the build's first sample";
+        bad->message = "the host's fields or outputs differ from those of the build's first sample";
         s = bad;
       }
     }
