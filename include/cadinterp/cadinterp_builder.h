@@ -287,7 +287,9 @@ typedef struct cadinterp_build_options {
    * boundary surface, relative to the bounding-box diagonal (default 1e-3; > 0). */
   double geometry_tolerance;
   /** Field error target: max |interpolated - true| relative to the field's range of values in
-   * the true sample (default 1e-2; > 0). */
+   * the true sample (default 1e-2; > 0). Scalar outputs (cadinterp_sample_add_output) are held
+   * to it too, relative to their magnitude (the largest |value| among the true and the
+   * element's samples). */
   double field_tolerance;
   int max_samples;        /**< no refinement starts beyond this many samples (default 256; >= 2) */
   int max_depth;          /**< splits per direction (default 8; 1..29) */

@@ -143,6 +143,21 @@ double MeshProblem::interpolation_error(int at, int centre, const int* terms, co
       err = std::max(err, e / (range * opt_.field_tolerance));
     }
   }
+  // Scalar outputs: relative to their magnitude (a scalar has no range of values), with the
+  // field tolerance, so the refinement bounds their interpolation error as it bounds the fields'.
+  for (std::size_t o = 0; o < truth.outputs.size(); ++o) {
+    double interpolated = 0, scale = std::abs(truth.outputs[o].value);
+    for (int t = 0; t < n; ++t) {
+      const Sample& term = sample(terms[t]);
+      if (o >= term.outputs.size()) return std::numeric_limits<double>::infinity();  // failed
+      const double v = term.outputs[o].value;
+      interpolated += psi[t] * v;
+      scale = std::max(scale, std::abs(v));
+    }
+    if (scale > 0)
+      err = std::max(
+          err, std::abs(interpolated - truth.outputs[o].value) / (scale * opt_.field_tolerance));
+  }
   return err;
 }
 

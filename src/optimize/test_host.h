@@ -3,8 +3,10 @@
 //   q (per vertex) = 1 + sum_d (x_d - t_d)^2 + z,   s (per tet) = 1 + x1 / 2 + z_centroid,
 // regions "bottom" (z = 0) and "top" (z = h). Its integrals are known in closed form:
 //   integral(q) = h (1 + sum_d (x_d - t_d)^2 + h / 2),   region_integral(q, top) = 1 + sum + h
-// so the minimizers are known. With fail_corner the host fails where x0 > 0.75 and x1 > 0.75.
-// Written against the builder's public C ABI (cadinterp_builder.h) only.
+// so the minimizers are known. Its scalar outputs are the same closed forms, computed by the
+// host on each sample as a CAD host computes a B-rep quantity: "brep_volume" = h (the box's
+// exact volume) and "exact_integral_q" = integral(q). With fail_corner the host fails where x0 >
+// 0.75 and x1 > 0.75. Written against the builder's public C ABI (cadinterp_builder.h) only.
 #pragma once
 
 #include <array>
@@ -130,6 +132,9 @@ struct BoxHost {
         cadinterp_sample_add_field(out, "q", CADINTERP_PER_VERTEX, 1, q.data(), q.size());
     if (st == CADINTERP_OK)
       st = cadinterp_sample_add_field(out, "s", CADINTERP_PER_TET, 1, s.data(), s.size());
+    if (st == CADINTERP_OK) st = cadinterp_sample_add_output(out, "brep_volume", height(x), "1");
+    if (st == CADINTERP_OK)
+      st = cadinterp_sample_add_output(out, "exact_integral_q", h->integral_q(x), nullptr);
     return st;
   }
 

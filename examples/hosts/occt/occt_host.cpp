@@ -585,7 +585,9 @@ cadinterp_status host_references(void* user, const double* x, cadinterp_sample* 
                                                              r.tags.data(), r.tags.size());
       if (s != CADINTERP_OK) return s;
     }
-    return CADINTERP_OK;
+    // The B-rep's exact volume as a per-sample output: interpolated without the mesh's
+    // discretization or mapping error (cadinterp_eval_outputs, `output(brep_volume)`).
+    return cadinterp_sample_add_output(out, "brep_volume", e.exact_volume, "mm^3");
   } catch (const std::bad_alloc&) {
     return CADINTERP_E_OUT_OF_MEMORY;
   } catch (const std::exception& ex) {
