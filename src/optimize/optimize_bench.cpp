@@ -124,6 +124,21 @@ void solve(benchmark::State& state, bool outputs) {
 void BM_OptimizeMeshQuantities(benchmark::State& state) { solve(state, false); }
 void BM_OptimizeSampleOutputs(benchmark::State& state) { solve(state, true); }
 
+// One evaluation of objective and constraint with their gradients at the start point
+// (cadinterp_optimize_evaluate): what each Ipopt evaluation costs.
+void evaluate(benchmark::State& state, bool outputs) {
+  cadinterp_optimize_problem* p = make_problem(outputs);
+  double v[2], g[2 * kK];
+  for (auto _ : state) {
+    if (cadinterp_optimize_evaluate(p, kStart, v, g) != CADINTERP_OK)
+      state.SkipWithError(cadinterp_optimize_error(p));
+    benchmark::DoNotOptimize(v);
+  }
+  cadinterp_optimize_destroy(p);
+}
+void BM_EvaluateMeshQuantities(benchmark::State& state) { evaluate(state, false); }
+void BM_EvaluateSampleOutputs(benchmark::State& state) { evaluate(state, true); }
+
 // One cadinterp_grad of positions and the field q at the start point: the blend behind each
 // evaluation of the mesh problem (integral(q) and volume share the element).
 void BM_EvalGrad(benchmark::State& state) {
@@ -195,6 +210,8 @@ void BM_HostEvaluation(benchmark::State& state) {
 
 BENCHMARK(BM_OptimizeMeshQuantities)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_OptimizeSampleOutputs)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EvaluateMeshQuantities)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EvaluateSampleOutputs)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EvalGrad)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MemcpyOfTheBlendBytes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EvalOutputsGrad)->Unit(benchmark::kMicrosecond);

@@ -404,12 +404,9 @@ cadinterp_status cadinterp_eval_outputs(cadinterp_workspace* ws, const double* x
                       std::to_string(a.outputs.size()) + ")");
   CADINTERP_CATCH_BEGIN
   const cadinterp::core::CompiledBasis& basis = a.reader->basis();
-  const int e = basis.locate(x);
-  if (e < 0) return fail(ws, CADINTERP_E_OUTSIDE_DOMAIN, "x is outside the parameter box");
-  if (!basis.element_feasible(e))
-    return fail(
-        ws, CADINTERP_E_INFEASIBLE,
-        "x lies in element " + std::to_string(e) + ", which depends on an infeasible sample");
+  int e = -1;
+  const cadinterp_status located = cadinterp::runtime::locate_feasible(ws, x, &e);
+  if (located != CADINTERP_OK) return located;
   cadinterp::core::BasisWeights w;
   basis.eval_element(e, x, ws->basis_ws, grad != nullptr, &w);
   const int K = basis.dim();
