@@ -644,6 +644,11 @@ cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host
     for (const auto& u : units)
       if (s == CADINTERP_OK && (u[0] != std::string("temperature") || m->thermal()))
         s = cadinterp_sample_set_field_unit(out, u[0], u[1]);
+    // The FEM's largest vertex stress as a per-sample output: a "max stress <= S" constraint on
+    // the host's own value, without a smooth maximum over the interpolated field.
+    if (s == CADINTERP_OK)
+      s = cadinterp_sample_add_output(
+          out, "max_von_mises", *std::max_element(f.von_mises.begin(), f.von_mises.end()), "MPa");
     return s;
   } catch (const std::bad_alloc&) {
     return CADINTERP_E_OUT_OF_MEMORY;
