@@ -12,6 +12,9 @@
 //   dpositions v...                  K lines: d positions / d x_k
 //   field0 v... / dfield0 v...       field 0 and its K derivative arrays
 //   unit I U                         field I's unit is U ("-": none, cadinterp_field_unit gives "")
+//   output I NAME U                  output I (format 1.3) is NAME with unit U ("-": none)
+//   outputs v...                     cadinterp_eval_outputs of every output at x
+//   doutputs v...                    K lines: d outputs / d x_k (one value per output)
 //
 // --dump DIR writes what the C ABI returned, as raw bytes, for other bindings to compare against
 // bit for bit (bindings/python's conformance test): DIR/GROUP/CASE/open (the status, text), and per
@@ -103,6 +106,41 @@ std::size_t field0_values(const cadinterp_asset* asset, std::uint32_t vertices,
   return std::size_t(f.location == CADINTERP_PER_TET ? tets : vertices) * std::size_t(f.components);
 }
 
+/// Every output of the asset at x, with the gradient (#outputs by K).
+void eval_all_outputs(cadinterp_workspace* ws, const cadinterp_asset* asset,
+                      const std::vector<double>& x, std::vector<double>& values,
+                      std::vector<double>& grad) {
+  const int n = cadinterp_output_count(asset);
+  std::vector<int> all(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+  values.assign(all.size(), 0.0);
+  grad.assign(all.size() * x.size(), 0.0);
+  if (cadinterp_eval_outputs(ws, x.data(), all.data(), n, values.data(), grad.data()) !=
+      CADINTERP_OK)
+    throw Failure(std::string("cadinterp_eval_outputs failed: ") + cadinterp_workspace_error(ws));
+}
+
+void compare(const std::string& what, const std::vector<double>& got,
+             const std::vector<double>& want, double tol) {
+  if (got.size() != want.size()) throw Failure(what + ": count differs");
+  for (std::size_t i = 0; i < want.size(); ++i)
+    if (!(std::abs(got[i] - want[i]) <= tol * (1.0 + std::abs(want[i]))))
+      throw Failure(what + "[" + std::to_string(i) + "]: got " + std::to_string(got[i]) +
+                    ", expected " + std::to_string(want[i]));
+}
+
+void check_output_name(const cadinterp_asset* asset, std::istringstream& in) {
+  int i = -1;
+  std::string want_name, want_unit;
+  in >> i >> want_name >> want_unit;
+  if (want_unit == "-") want_unit.clear();
+  const char *name = nullptr, *unit = nullptr;
+  if (cadinterp_output(asset, i, &name, &unit) != CADINTERP_OK)
+    throw Failure("cadinterp_output " + std::to_string(i) + " failed");
+  if (want_name != name || want_unit != unit)
+    throw Failure("output " + std::to_string(i) + " is '" + name + "' [" + unit + "]");
+}
+
 void run_case(const fs::path& dir, const Dump& dump) {
   std::ifstream exp(dir / "expected.txt");
   if (!exp) throw Failure("no expected.txt");
@@ -120,7 +158,8 @@ void run_case(const fs::path& dir, const Dump& dump) {
   std::vector<double> x;
   cadinterp_mesh mesh{};
   cadinterp_mesh_grad grad{};
-  int dpos = 0, dfield = 0, points = 0;
+  int dpos = 0, dfield = 0, doutput = 0, points = 0;
+  std::vector<double> output_values, output_grad;
   std::string line;
   while (std::getline(exp, line)) {
     std::istringstream in(line);
@@ -201,7 +240,17 @@ void run_case(const fs::path& dir, const Dump& dump) {
         fptr[0] = fld.data();
         mesh.fields = fptr;
       }
-      dpos = dfield = 0;
+      dpos = dfield = doutput = 0;
+    } else if (key == "output") {
+      check_output_name(asset, in);
+    } else if (key == "outputs") {
+      eval_all_outputs(ws, asset, x, output_values, output_grad);
+      compare("outputs", output_values, numbers(in), tol);
+    } else if (key == "doutputs") {
+      const std::size_t K = x.size(), d = static_cast<std::size_t>(doutput++);
+      std::vector<double> got;
+      for (std::size_t i = 0; i < output_values.size(); ++i) got.push_back(output_grad[i * K + d]);
+      compare("doutputs", got, numbers(in), grad_tol);
     } else if (key == "element") {
       int e;
       in >> e;

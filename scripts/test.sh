@@ -47,6 +47,9 @@ step "release: benchmark smoke runs (measure nothing, prove the benchmarks run)"
 ./build/release/examples/physics/physics_benchmark --benchmark_min_time=0.001 \
   --benchmark_filter='order1/1377' >/dev/null
 
+step "release: optimize_bench smoke run (mesh quantities vs per-sample outputs; a 2x2x2 box)"
+./build/release/src/optimize/optimize_bench --cubes=2 --benchmark_min_time=0.001 >/dev/null
+
 step "install: consumers of a staged install (CMake package, pkg-config, static link)"
 BUILD_DIR=build/release scripts/test-install.sh
 

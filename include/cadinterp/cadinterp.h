@@ -548,6 +548,54 @@ CADINTERP_API cadinterp_status cadinterp_eval_integral(cadinterp_workspace* ws, 
                                                        int field, int component, int region,
                                                        double* value, double* grad);
 
+/* ---- Per-sample scalar outputs -------------------------------------------------------------
+ * Quantities the builder's host computed exactly on each sample (a B-rep volume, a compliance, a
+ * maximum stress: cadinterp_sample_add_output), stored per sample (format 1.3) and interpolated
+ * with the same basis weights as the mesh: o(x) = sum_t psi_t(x) o_t over the terms t of the
+ * element holding x (paper Eq. 3 applied to a scalar). No mesh is decoded or blended, so an
+ * evaluation costs O(terms), and no mapping error enters. Assets of format 1.0 to 1.2 have none. */
+
+/** Number of scalar outputs (0 for a NULL asset or an asset without outputs). */
+CADINTERP_API int cadinterp_output_count(const cadinterp_asset* asset);
+
+/**
+ * Name and unit of output i.
+ * @param[in]  i     0 <= i < cadinterp_output_count(asset)
+ * @param[out] name  NUL-terminated UTF-8 owned by the asset, valid until cadinterp_close
+ * @param[out] unit  NULL, or receives the unit as free text ("" when the host gave none), owned
+ *                   by the asset
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL asset or name, or i out of range
+ * (outputs untouched). Thread-safety: safe (the asset is immutable).
+ */
+CADINTERP_API cadinterp_status cadinterp_output(const cadinterp_asset* asset, int i,
+                                                const char** name, const char** unit);
+
+/** Index of the output called `name` (exact, case-sensitive). CADINTERP_E_NOT_FOUND if there is
+ *  none, CADINTERP_E_INVALID_ARGUMENT for a NULL argument; `*index` untouched on failure.
+ *  Thread-safety: safe. */
+CADINTERP_API cadinterp_status cadinterp_find_output(const cadinterp_asset* asset, const char* name,
+                                                     int* index);
+
+/**
+ * Interpolated outputs at x, and optionally their exact gradients:
+ * values[i] = sum_t psi_t(x) o_t and grad[i * K + d] = sum_t dpsi_t/dx_d o_t, in double, with the
+ * smoothness of the basis (cubic assets C2, linear assets C0 with kinks; the one-sided derivative
+ * of the element holding x, as cadinterp_grad). Does not decode or touch any element mesh.
+ * @param[in]  x             K parameter values
+ * @param[in]  outputs       output_count indices (0 <= outputs[i] < cadinterp_output_count);
+ *                           may be NULL when output_count is 0
+ * @param[out] values        output_count doubles; untouched on failure
+ * @param[out] grad          NULL, or output_count by K doubles (row i: d values[i] / dx);
+ *                           untouched on failure
+ * @return as cadinterp_eval (CADINTERP_E_OUTSIDE_DOMAIN, CADINTERP_E_INFEASIBLE, ...);
+ *         CADINTERP_E_INVALID_ARGUMENT also for a NULL x or values, a negative output_count,
+ *         NULL outputs with a positive count, or an index out of range (the message says which).
+ *         Thread-safety: as every call on a workspace (one thread at a time per workspace).
+ */
+CADINTERP_API cadinterp_status cadinterp_eval_outputs(cadinterp_workspace* ws, const double* x,
+                                                      const int* outputs, int output_count,
+                                                      double* values, double* grad);
+
 /* ---- Deprecated names ------------------------------------------------------------------------
  * Each calls its new name and returns what it returns (same thread-safety, ownership and
  * failures). Names of library 0.1 (deprecated since 1.0): exported by every 1.x library, since

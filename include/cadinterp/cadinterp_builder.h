@@ -158,6 +158,24 @@ CADINTERP_API cadinterp_status cadinterp_sample_add_field(cadinterp_sample* samp
 CADINTERP_API cadinterp_status cadinterp_sample_set_field_unit(cadinterp_sample* sample,
                                                                const char* name, const char* unit);
 
+/**
+ * Adds a scalar output: a quantity the host computed exactly at this sample's x (its B-rep
+ * volume, a compliance, a maximum stress, ...). The asset stores it per sample (format 1.3) and
+ * the runtime interpolates it with the element's basis weights (cadinterp_eval_outputs): no
+ * mesh blend and no mapping error. Callable from any callback. Every feasible sample of a build
+ * must give the same outputs (names, in the same order); a sample that differs is infeasible.
+ * Copies the name and the unit.
+ * @param[in] name   non-empty, unique in the sample (UTF-8)
+ * @param[in] value  the value (checked finite after the callback returns: a non-finite value
+ *                   makes the sample infeasible)
+ * @param[in] unit   free text ("mm^3", "N mm"), or NULL / "" for none
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL sample or name, an empty name,
+ *         or a name already added to this sample.
+ */
+CADINTERP_API cadinterp_status cadinterp_sample_add_output(cadinterp_sample* sample,
+                                                           const char* name, double value,
+                                                           const char* unit);
+
 /** Sets the message recorded with an infeasible sample (why the host failed), replacing any
  * earlier one; it is used when the callback then returns a status other than CADINTERP_OK.
  * Copies it. @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL message. */
@@ -271,7 +289,9 @@ typedef struct cadinterp_build_options {
    * boundary surface, relative to the bounding-box diagonal (default 1e-3; > 0). */
   double geometry_tolerance;
   /** Field error target: max |interpolated - true| relative to the field's range of values in
-   * the true sample (default 1e-2; > 0). */
+   * the true sample (default 1e-2; > 0). Scalar outputs (cadinterp_sample_add_output) are held
+   * to it too, relative to their magnitude (the largest |value| among the true and the
+   * element's samples). */
   double field_tolerance;
   int max_samples;        /**< no refinement starts beyond this many samples (default 256; >= 2) */
   int max_depth;          /**< splits per direction (default 8; 1..29) */

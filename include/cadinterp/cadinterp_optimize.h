@@ -73,17 +73,22 @@ typedef enum cadinterp_optimize_quantity {
   /** Kreisselmeier-Steinhauser aggregate, rho = `parameter` > 0 in 1/(field unit):
    *  max_i f_i + ln(sum_i exp(rho (f_i - max_i f_i))) / rho, between max_i f_i and
    *  max_i f_i + ln(N) / rho: an upper bound within ln(N) / rho, in the field's unit */
-  CADINTERP_OPTIMIZE_MAX_KS = 8
+  CADINTERP_OPTIMIZE_MAX_KS = 8,
+  /** the per-sample scalar output `field` (an output index: cadinterp_find_output), a quantity
+   *  the host computed exactly on each sample, interpolated with the basis weights
+   *  (cadinterp_eval_outputs): O(terms) per evaluation, no mesh blend, no mapping error */
+  CADINTERP_OPTIMIZE_OUTPUT = 9
 } cadinterp_optimize_quantity;
 
 /** One term of a function: weight * quantity(x). */
 typedef struct cadinterp_optimize_term {
   size_t struct_size; /**< sizeof(cadinterp_optimize_term) */
   cadinterp_optimize_quantity quantity;
-  double weight;       /**< finite; default 1 */
-  int field;           /**< a field index (integrals and maxima; -1 allowed for integrals) */
-  int component;       /**< of the field, centroid or inertia; default 0 */
-  int region;          /**< integrals: a region index, or -1 (default) for the solid */
+  double weight; /**< finite; default 1 */
+  int field;     /**< a field index (integrals and maxima; -1 allowed for integrals), or an output
+                      index (CADINTERP_OPTIMIZE_OUTPUT) */
+  int component; /**< of the field, centroid or inertia; default 0 */
+  int region;    /**< integrals: a region index, or -1 (default) for the solid */
   double parameter;    /**< density (mass, inertia), p (p-norm), rho (KS); default 1 */
   double direction[3]; /**< frontal area's direction; default (0, 0, 1) */
 } cadinterp_optimize_term;
@@ -135,14 +140,16 @@ CADINTERP_OPTIMIZE_API cadinterp_status cadinterp_optimize_add_term(
  *   volume | area | mass[(density)] | frontal_area[(dx, dy, dz)] | centroid_x|_y|_z |
  *   inertia_xx|_xy|...|_zz[(density)] | integral(FIELD[, component]) |
  *   region_integral(FIELD, REGION[, component]) | region_area(REGION) |
- *   max(FIELD[, p=P | ks=RHO][, component])
- * FIELD and REGION are names of the asset (quoted with '...' when they hold other characters
- * than letters, digits and '_'); max defaults to p = 8. Example: "integral(von_mises) +
- * 0.1*mass(7.8e-9)".
+ *   max(FIELD[, p=P | ks=RHO][, component]) | output(OUTPUT) | OUTPUT
+ * FIELD, REGION and OUTPUT are names of the asset (quoted with '...' when they hold other
+ * characters than letters, digits and '_'); max defaults to p = 8. An output (a per-sample
+ * scalar, CADINTERP_OPTIMIZE_OUTPUT) may be named bare when its name is none of the quantities
+ * above (those win: `volume` is always the mesh's; `output(volume)` the output). Examples:
+ * "integral(von_mises) + 0.1*mass(7.8e-9)", "output(brep_volume)", "brep_volume".
  * @return CADINTERP_OK (terms added); CADINTERP_E_INVALID_ARGUMENT for a NULL argument, an
- *         unknown function or a syntax error; CADINTERP_E_NOT_FOUND for an unknown field or
- *         region name. On failure no term is added and the message names the offending token
- *         and its column (1-based), e.g. "column 12: unknown quantity 'mas'".
+ *         unknown function or a syntax error; CADINTERP_E_NOT_FOUND for an unknown field,
+ *         region or output name. On failure no term is added and the message names the offending
+ * token and its column (1-based), e.g. "column 12: unknown quantity 'mas'".
  */
 CADINTERP_OPTIMIZE_API cadinterp_status
 cadinterp_optimize_parse(cadinterp_optimize_problem* problem, int function, const char* expression);

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <thread>
 
@@ -155,6 +156,26 @@ void describe_asset(const Host& host, const BuildOptions& opt, const Mapper& map
   for (const InfeasiblePoint& f : out.infeasible) c.infeasible.push_back({f.x, f.message});
 }
 
+// The scalar outputs (those of `field_source`, which every feasible sample shares by name and
+// order): per basis sample its host's value, NaN where the host failed (no feasible element
+// uses such a sample).
+void sample_outputs(const core::AdaptiveRun& run, const MeshProblem& problem,
+                    const Sample& field_source, format::AssetContent& c) {
+  const int S = run.basis.sample_count();
+  for (std::size_t o = 0; o < field_source.outputs.size(); ++o) {
+    format::OutputInfo info;
+    info.name = field_source.outputs[o].name;
+    info.unit = field_source.outputs[o].unit;
+    info.values.assign(static_cast<std::size_t>(S), std::numeric_limits<double>::quiet_NaN());
+    for (int k = 0; k < S; ++k) {
+      const Sample& s = problem.sample(run.sample_row[static_cast<std::size_t>(k)]);
+      if (s.feasible && o < s.outputs.size())
+        info.values[static_cast<std::size_t>(k)] = s.outputs[o].value;
+    }
+    c.outputs.push_back(std::move(info));
+  }
+}
+
 BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport& details,
                          Clock::time_point start) {
   check_options(host, opt);
@@ -195,6 +216,7 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
 
   // The asset around its elements.
   describe_asset(host, opt, mapper, cb, element_ok, *field_source, out);
+  sample_outputs(run, problem, *field_source, out.content);
   rep.budget_exhausted = run.budget_exhausted ? 1 : 0;
   return out;
 }

@@ -225,6 +225,17 @@ CADINTERP_API cadinterp_status cadinterp_sample_set_field_unit(cadinterp_sample*
   CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
 }
 
+CADINTERP_API cadinterp_status cadinterp_sample_add_output(cadinterp_sample* s, const char* name,
+                                                           double value, const char* unit) {
+  CADINTERP_CATCH_BEGIN
+  if (!s || !name || !*name) return CADINTERP_E_INVALID_ARGUMENT;
+  for (const auto& o : s->sample.outputs)
+    if (o.name == name) return CADINTERP_E_INVALID_ARGUMENT;
+  s->sample.outputs.push_back({name, value, unit ? unit : ""});
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END_MAP(nullptr, builder_exceptions)
+}
+
 CADINTERP_API cadinterp_status cadinterp_sample_set_message(cadinterp_sample* s,
                                                             const char* message) {
   CADINTERP_CATCH_BEGIN

@@ -21,6 +21,7 @@ FieldSignature FieldSignature::of(const Sample& s) {
     f.locations.push_back(x.location);
     f.components.push_back(x.components);
   }
+  for (const mesh::Output& o : s.outputs) f.outputs.push_back(o.name);
   return f;
 }
 
@@ -79,7 +80,7 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
         signature_ = sig;
       } else if (!(sig == *signature_)) {
         auto bad = std::make_shared<Sample>();
-        bad->message = "the host's fields differ from those of the build's first sample";
+        bad->message = "the host's fields or outputs differ from those of the build's first sample";
         s = bad;
       }
     }
@@ -141,6 +142,21 @@ double MeshProblem::interpolation_error(int at, int centre, const int* terms, co
         e = std::max(e, std::abs(F[f][i] - m.fields[f][i]));
       err = std::max(err, e / (range * opt_.field_tolerance));
     }
+  }
+  // Scalar outputs: relative to their magnitude (a scalar has no range of values), with the
+  // field tolerance, so the refinement bounds their interpolation error as it bounds the fields'.
+  for (std::size_t o = 0; o < truth.outputs.size(); ++o) {
+    double interpolated = 0, scale = std::abs(truth.outputs[o].value);
+    for (int t = 0; t < n; ++t) {
+      const Sample& term = sample(terms[t]);
+      if (o >= term.outputs.size()) return std::numeric_limits<double>::infinity();  // failed
+      const double v = term.outputs[o].value;
+      interpolated += psi[t] * v;
+      scale = std::max(scale, std::abs(v));
+    }
+    if (scale > 0)
+      err = std::max(
+          err, std::abs(interpolated - truth.outputs[o].value) / (scale * opt_.field_tolerance));
   }
   return err;
 }

@@ -27,9 +27,11 @@ namespace cadinterp::builder {
 struct FieldSignature {
   std::vector<std::string> names;
   std::vector<int> locations, components;
+  std::vector<std::string> outputs;  ///< the scalar outputs' names, in order
   static FieldSignature of(const Sample& s);
   bool operator==(const FieldSignature& o) const {
-    return names == o.names && locations == o.locations && components == o.components;
+    return names == o.names && locations == o.locations && components == o.components &&
+           outputs == o.outputs;
   }
 };
 

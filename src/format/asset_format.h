@@ -12,8 +12,8 @@
 //             transfers like PNG's signature)
 //   8  u16    format major (readers reject any other major)
 //   10 u16    format minor (readers read newer minors too; writers stamp the lowest minor
-//             whose schema holds what the file uses: 1.1 only with field units; from 1.2 on
-//             repeated in the index)
+//             whose schema holds what the file uses: 1.1 only with field units, 1.3 with
+//             scalar outputs; from 1.2 on repeated in the index)
 //   12 u32    header size (exactly 48 in every 1.x)
 //   16 u64    file size in bytes (a shorter file is truncated, a longer one corrupt)
 //   24 u64    index offset (exactly 48 in every 1.x: the index follows the header)
@@ -35,11 +35,13 @@ inline constexpr std::uint16_t kFormatMajor = 1;
 /// The newest minor this code knows (its schema: fileformat/cadinterp.fbs). Readers open newer
 /// minors too, ignoring what they do not know (format_version.h, SPEC.md "Versions and
 /// features").
-inline constexpr std::uint16_t kFormatMinor = 2;
+inline constexpr std::uint16_t kFormatMinor = 3;
 /// 1.1 appended FieldDesc.unit.
 inline constexpr std::uint16_t kMinorFieldUnits = 1;
 /// 1.2 appended Asset.format_minor and Asset.required_features.
 inline constexpr std::uint16_t kMinorFeatures = 2;
+/// 1.3 appended SampleOutput and Asset.outputs (per-sample scalar outputs).
+inline constexpr std::uint16_t kMinorOutputs = 3;
 inline constexpr std::size_t kHeaderSize = 48;
 
 /// Outcome of reading or writing an asset. The values equal the C ABI's cadinterp_status values

@@ -304,6 +304,29 @@ void check_descriptions(const fb::Asset& index, int K) {
   }
 }
 
+// Format 1.3 outputs: names present, unique and without NUL, one value per sample, finite at
+// every sample a feasible element uses (so an evaluation never returns a NaN the file stored).
+void check_outputs(const fb::Asset& index, const core::CompiledBasis& basis) {
+  const auto* outputs = index.outputs();
+  if (!outputs) return;
+  const core::CompiledBasis::Parts& p = basis.parts();
+  const std::size_t S = p.sample_unit.size() / static_cast<std::size_t>(p.K);
+  std::set<std::string_view> names;
+  for (const fb::SampleOutput* o : *outputs) {
+    check_text(o->name(), "output name");
+    check_text(o->unit(), "output unit");
+    if (!names.insert(o->name()->string_view()).second) corrupt("output name given twice");
+    if (!o->values() || o->values()->size() != S) corrupt("output without one value per sample");
+    for (std::size_t e = 0; e + 1 < p.elem_term_begin.size(); ++e) {
+      if (!p.elem_feasible[e]) continue;
+      for (auto t = p.elem_term_begin[e]; t < p.elem_term_begin[e + 1]; ++t)
+        if (!std::isfinite(o->values()->Get(
+                static_cast<flatbuffers::uoffset_t>(p.term_sample[static_cast<std::size_t>(t)]))))
+          corrupt("output value not finite at a sample of a feasible element");
+    }
+  }
+}
+
 // Checks the field descriptions and adds up the values each vertex and each tet carries.
 void count_field_values(const fb::Asset& index, std::size_t& per_vertex, std::size_t& per_tet) {
   if (const auto* fields = index.fields())
@@ -448,6 +471,7 @@ void AssetReader::open(const ReadLimits& limits) {
   check_index_version(*index_, minor_);
   basis_ = read_basis(*index_);
   check_descriptions(*index_, basis_.dim());
+  check_outputs(*index_, basis_);
   count_field_values(*index_, per_vertex_, per_tet_);
 
   const auto* elems = index_->elements();

@@ -2,6 +2,7 @@
 
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -59,8 +60,33 @@ struct FieldSizes {
   std::size_t per_vertex = 0, per_tet = 0;
 };
 
-// Checks the content's descriptors against its basis: parameters, element count, fields and
-// regions. Throws FormatError(InvalidArgument) naming the first mismatch.
+// Outputs: unique non-empty names, one value per sample, finite wherever a feasible element
+// reads it (the reader checks the same, SPEC.md "Scalar outputs").
+void check_outputs(const AssetContent& c) {
+  const core::CompiledBasis::Parts& p = c.basis->parts();
+  const std::size_t S = p.sample_unit.size() / static_cast<std::size_t>(p.K);
+  std::vector<std::string> names;
+  for (const OutputInfo& o : c.outputs) {
+    if (o.name.empty() || o.name.find('\0') != std::string::npos ||
+        o.unit.find('\0') != std::string::npos)
+      bad("output name empty, or name or unit contains a NUL");
+    if (std::find(names.begin(), names.end(), o.name) != names.end())
+      bad("output '" + o.name + "' given twice");
+    names.push_back(o.name);
+    if (o.values.size() != S) bad("output '" + o.name + "': one value per sample needed");
+    for (int e = 0; e < c.basis->element_count(); ++e) {
+      if (!p.elem_feasible[static_cast<std::size_t>(e)]) continue;
+      for (auto t = p.elem_term_begin[static_cast<std::size_t>(e)];
+           t < p.elem_term_begin[static_cast<std::size_t>(e) + 1]; ++t)
+        if (!std::isfinite(
+                o.values[static_cast<std::size_t>(p.term_sample[static_cast<std::size_t>(t)])]))
+          bad("output '" + o.name + "' is not finite at a sample of element " + std::to_string(e));
+    }
+  }
+}
+
+// Checks the content's descriptors against its basis: parameters, element count, fields,
+// regions and outputs. Throws FormatError(InvalidArgument) naming the first mismatch.
 FieldSizes check_content(const AssetContent& c) {
   if (!c.basis) bad("no basis");
   const core::CompiledBasis::Parts& p = c.basis->parts();
@@ -85,6 +111,7 @@ FieldSizes check_content(const AssetContent& c) {
   }
   for (const RegionInfo& r : c.regions)
     if (r.name.empty()) bad("boundary region without a name");
+  check_outputs(c);
   return sizes;
 }
 
@@ -170,6 +197,8 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
 void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, const WriteOptions& o,
                  const std::vector<flatbuffers::Offset<fb::ElementMeshes>>& elements,
                  bool* any_unit) {
+  // format_minor is written only when non-zero (FlatBuffers omits a scalar equal to its
+  // default), so files without outputs stay byte for byte minor 0 or 1 files.
   const core::CompiledBasis::Parts& p = c.basis->parts();
   const int K = p.K;
   std::vector<flatbuffers::Offset<fb::Parameter>> params;
@@ -205,16 +234,24 @@ void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, con
     if (f.message.find('\0') != std::string::npos) bad("infeasible message contains a NUL");
     infeasible.push_back(fb::CreateInfeasiblePointDirect(fbb, &f.x, f.message.c_str()));
   }
-  // Absent, not empty, when there is none: assets without failures keep their bytes.
-  const auto asset = fb::CreateAssetDirect(fbb, &params, basis, &elements, &fields, &regions, prov,
-                                           static_cast<float>(o.position_max_abs_error),
-                                           infeasible.empty() ? nullptr : &infeasible);
+  std::vector<flatbuffers::Offset<fb::SampleOutput>> outputs;
+  for (const OutputInfo& out : c.outputs)
+    outputs.push_back(fb::CreateSampleOutputDirect(
+        fbb, out.name.c_str(), out.unit.empty() ? nullptr : out.unit.c_str(), &out.values));
+  // Absent, not empty, when there is none: assets without failures or outputs keep their bytes.
+  // Outputs are 1.3 content: such a file repeats its minor in the index (SPEC.md).
+  const bool with_outputs = !outputs.empty();
+  const auto asset = fb::CreateAssetDirect(
+      fbb, &params, basis, &elements, &fields, &regions, prov,
+      static_cast<float>(o.position_max_abs_error), infeasible.empty() ? nullptr : &infeasible,
+      with_outputs ? kMinorOutputs : 0, nullptr, with_outputs ? &outputs : nullptr);
   fb::FinishAssetBuffer(fbb, asset);
 }
 
 // The file: header, the finished index, then the blob section (SPEC.md, "Layout").
 std::vector<std::uint8_t> assemble_file(const flatbuffers::FlatBufferBuilder& fbb,
-                                        const std::vector<std::uint8_t>& section, bool any_unit) {
+                                        const std::vector<std::uint8_t>& section,
+                                        std::uint16_t minor) {
   const std::uint64_t index_offset = kHeaderSize;  // 48: 8-aligned
   std::vector<std::uint8_t> file(kHeaderSize + fbb.GetSize() + section.size(), 0);
   std::memcpy(file.data() + kHeaderSize, fbb.GetBufferPointer(), fbb.GetSize());
@@ -223,10 +260,10 @@ std::vector<std::uint8_t> assemble_file(const flatbuffers::FlatBufferBuilder& fb
   std::memcpy(file.data(), kMagic, sizeof kMagic);
   put_le(file, 8, kFormatMajor, 2);
   // The lowest minor whose schema holds what this file uses (SPEC.md, "Versions and features"):
-  // 1.0 readers keep opening assets without field units. This writer uses nothing of 1.2: no
-  // feature a reader must implement exists beyond 1.0 (the list is empty), so it never writes
-  // format_minor or required_features.
-  put_le(file, 10, any_unit ? kMinorFieldUnits : 0, 2);
+  // 1.0 readers keep opening assets without field units, and every reader from 1.2 on opens
+  // those with outputs (an optional addition). No feature a reader must implement exists beyond
+  // 1.0 (the list is empty), so it never writes required_features.
+  put_le(file, 10, minor, 2);
   put_le(file, 12, kHeaderSize, 4);
   put_le(file, 16, file.size(), 8);
   put_le(file, 24, index_offset, 8);
@@ -247,7 +284,9 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
     elements.push_back(write_element(fbb, sink, c, e, o, sizes));
   bool any_unit = false;
   write_index(fbb, c, o, elements, &any_unit);
-  return assemble_file(fbb, section, any_unit);
+  const std::uint16_t minor =
+      !c.outputs.empty() ? kMinorOutputs : (any_unit ? kMinorFieldUnits : 0);
+  return assemble_file(fbb, section, minor);
 }
 
 void check_asset_file_writable(const std::string& path) {

@@ -58,6 +58,12 @@ struct InfeasibleInfo {
   std::string message;
 };
 
+/// A scalar output: one value per basis sample (format 1.3; NaN where the host failed).
+struct OutputInfo {
+  std::string name, unit;
+  std::vector<double> values;  ///< #S, the basis' sample order
+};
+
 struct AssetContent {
   std::vector<ParameterInfo> parameters;  ///< K, in the basis' direction order
   const core::CompiledBasis* basis = nullptr;
@@ -66,6 +72,8 @@ struct AssetContent {
   std::vector<ElementData> elements;  ///< one per basis element, in its order
   std::string builder_version, host, options_json;
   std::vector<InfeasibleInfo> infeasible;  ///< host failures, in the builder's order
+  /// Scalar outputs, names unique; any makes the file format 1.3.
+  std::vector<OutputInfo> outputs;
 };
 
 struct WriteOptions {
@@ -76,7 +84,8 @@ struct WriteOptions {
 };
 
 /// Serializes `content` to the bytes of a .cadi file. Throws FormatError(InvalidArgument) when
-/// the content is inconsistent (counts, term counts, parameter ranges against the basis).
+/// the content is inconsistent (counts, term counts, parameter ranges against the basis, output
+/// names and value counts, a non-finite output value at a sample a feasible element uses).
 std::vector<std::uint8_t> write_asset(const AssetContent& content, const WriteOptions& options);
 
 /// As write_asset, to `path` (written to `path`.tmp, then renamed, so a crash never leaves a

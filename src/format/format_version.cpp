@@ -46,6 +46,9 @@ void check_format_version(std::uint16_t major, std::uint16_t minor) {
 
 void check_index_version(const fb::Asset& index, std::uint16_t minor) {
   const auto* features = index.required_features();
+  // Outputs are 1.3 content: a file holding them says 1.3 or more.
+  if (minor < kMinorOutputs && index.outputs())
+    corrupt_version("format minor " + std::to_string(minor) + " with the outputs of format 1.3");
   if (minor < kMinorFeatures) {
     // Both fields are 1.2 content: a file holding them says 1.2 or more.
     if (flatbuffers::IsFieldPresent(&index, fb::Asset::VT_FORMAT_MINOR) || features)

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "cadinterp/cadinterp_version.h"
@@ -136,6 +137,12 @@ bool synthetic_host(const SyntheticSpec& spec, const BoxMesh& box, const double*
   return true;
 }
 
+double synthetic_output(const SyntheticSpec& spec, const double* x) {
+  double v = 1.0 + 0.5 * std::sin(3.0 * x[0]);
+  for (int d = 0; d < spec.K; ++d) v += (d + 1) * x[d] * x[d];
+  return v;
+}
+
 SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec) {
   if (spec.K < 1 || spec.K > 4) throw std::invalid_argument("synthetic asset: K must be 1..4");
   const BoxMesh box = synthetic_box(spec);
@@ -172,6 +179,19 @@ SyntheticAsset make_synthetic_asset(const SyntheticSpec& spec) {
   if (spec.fields) {
     c.fields.push_back({"temperature", FieldLocation::Vertex, 1, spec.field_units ? "K" : ""});
     c.fields.push_back({"stress", FieldLocation::Tet, 1, spec.field_units ? "MPa" : ""});
+  }
+  if (spec.outputs) {
+    OutputInfo o;
+    o.name = "energy";
+    o.unit = "J";
+    for (int k = 0; k < out.samples; ++k) {
+      double x[core::kMaxDim];
+      out.basis->sample_position(k, x);
+      o.values.push_back(r.infeasible[static_cast<std::size_t>(k)]
+                             ? std::numeric_limits<double>::quiet_NaN()
+                             : synthetic_output(spec, x));
+    }
+    c.outputs.push_back(std::move(o));
   }
   c.regions.push_back({"clamp", "fixed", {0}});
   c.regions.push_back({"tip load", "force", {1}});

@@ -22,7 +22,13 @@ struct SyntheticSpec {
   bool infeasible_corner = false;  ///< host fails where all parameters exceed 0.8
   bool check_face_centres = true;  ///< AdaptiveOptions::check_face_centres
   bool field_units = false;        ///< give the fields units ("K", "MPa"): a format 1.1 asset
+  /// Store the scalar output "energy" per sample (synthetic_output): a format 1.3 asset.
+  bool outputs = false;
 };
+
+/// The synthetic host's scalar output at x (K values): 1 + sum_d (d + 1) x_d^2 + sin(3 x_0) / 2,
+/// smooth and non-polynomial so that cubic interpolation of it is not exact.
+double synthetic_output(const SyntheticSpec& spec, const double* x);
 
 /// The fixed topology of the box mesh.
 struct BoxMesh {

@@ -71,6 +71,40 @@ TEST(Sample, SerializesLosslesslyAndValidates) {
   EXPECT_NE(mesh::validate(bad).find("stress"), std::string::npos);
 }
 
+TEST(Sample, OutputsSerializeAndOlderVersionsStillRead) {
+  const double x[2] = {0.3, 0.7};
+  Sample s = box_sample(x);
+  const auto bytes_without = mesh::serialize(s);
+  s.outputs.push_back({"brep_volume", 1.25, "mm^3"});
+  s.outputs.push_back({"compliance", -3.5e-7, ""});
+  EXPECT_EQ(mesh::validate(s), "");
+  const auto bytes = mesh::serialize(s);
+  const Sample t = mesh::deserialize(bytes.data(), bytes.size());
+  ASSERT_EQ(t.outputs.size(), 2u);
+  EXPECT_EQ(t.outputs[0].name, "brep_volume");
+  EXPECT_EQ(t.outputs[0].value, 1.25);
+  EXPECT_EQ(t.outputs[0].unit, "mm^3");
+  EXPECT_EQ(t.outputs[1].value, -3.5e-7);
+
+  // A version 2 store (written before outputs existed) is the version 3 bytes without the
+  // trailing output count: it still reads, with no outputs.
+  std::vector<std::uint8_t> v2(bytes_without.begin(), bytes_without.end() - 8);
+  ASSERT_EQ(v2[4], 3);
+  v2[4] = 2;
+  const Sample old = mesh::deserialize(v2.data(), v2.size());
+  EXPECT_TRUE(old.outputs.empty());
+  EXPECT_EQ(old.fields[0].unit, "K");
+  v2[4] = 4;  // a version from the future is refused
+  EXPECT_THROW(mesh::deserialize(v2.data(), v2.size()), std::runtime_error);
+
+  Sample bad = s;
+  bad.outputs[1].name = "brep_volume";
+  EXPECT_NE(mesh::validate(bad).find("given twice"), std::string::npos);
+  bad = s;
+  bad.outputs[0].value = std::numeric_limits<double>::infinity();
+  EXPECT_NE(mesh::validate(bad).find("not finite"), std::string::npos);
+}
+
 TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
   // Two unit squares 0.25 apart: Hausdorff 0.25.
   const std::vector<double> A = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};

@@ -78,15 +78,21 @@ std::string validate(const Sample& s) {
     for (double v : f.values)
       if (!std::isfinite(v)) return "field '" + f.name + "' has non-finite values";
   }
+  std::set<std::string> output_names;
+  for (const Output& o : s.outputs) {
+    if (o.name.empty()) return "output with an empty name";
+    if (!output_names.insert(o.name).second) return "output '" + o.name + "' given twice";
+    if (!std::isfinite(o.value)) return "output '" + o.name + "' is not finite";
+  }
   return "";
 }
 
 namespace {
 
 constexpr std::uint32_t kMagic = 0x53494443;  // "CDIS"
-// 2 appended the field units after the fields; version 1 bytes (stores written before) still
-// read, with no units.
-constexpr std::uint32_t kVersion = 2;
+// 2 appended the field units after the fields, 3 the scalar outputs after the units; version 1
+// and 2 bytes (stores written by earlier builds) still read, without units or outputs.
+constexpr std::uint32_t kVersion = 3;
 
 void put_str(std::vector<std::uint8_t>& out, const std::string& s) {
   put_u64(out, s.size());
@@ -173,6 +179,12 @@ std::vector<std::uint8_t> serialize(const Sample& s) {
     put_pod(out, f.values);
   }
   for (const Field& f : s.fields) put_str(out, f.unit);  // version 2
+  put_u64(out, s.outputs.size());                        // version 3
+  for (const Output& o : s.outputs) {
+    put_str(out, o.name);
+    put_f64(out, o.value);
+    put_str(out, o.unit);
+  }
   return out;
 }
 
@@ -181,7 +193,7 @@ Sample deserialize(const std::uint8_t* bytes, std::size_t size) {
     Reader r(bytes, size);
     if (r.u32() != kMagic) throw std::runtime_error("sample bytes: bad magic");
     const std::uint32_t version = r.u32();
-    if (version != 1 && version != kVersion)
+    if (version < 1 || version > kVersion)
       throw std::runtime_error("sample bytes: unknown version");
     Sample s;
     s.feasible = r.u32() != 0;
@@ -216,6 +228,14 @@ Sample deserialize(const std::uint8_t* bytes, std::size_t size) {
     }
     if (version >= 2)
       for (Field& f : s.fields) f.unit = r.str();
+    if (version >= 3) {
+      s.outputs.resize(r.count(24));
+      for (Output& o : s.outputs) {
+        o.name = r.str();
+        o.value = r.f64();
+        o.unit = r.str();
+      }
+    }
     if (!r.done()) throw std::runtime_error("sample bytes: trailing data");
     return s;
   } catch (const format::CodecError&) {

@@ -32,6 +32,14 @@ struct Field {
   std::string unit;            ///< free text, "" when the host gave none
 };
 
+/// A scalar the host computed exactly on this sample (B-rep volume, compliance, ...), stored
+/// per sample and interpolated with the element's weights (cadinterp_eval_outputs).
+struct Output {
+  std::string name;
+  double value = 0.0;
+  std::string unit;  ///< free text, "" when the host gave none
+};
+
 struct Sample {
   bool feasible = false;
   std::string message;                      ///< why the host failed (infeasible samples)
@@ -43,7 +51,8 @@ struct Sample {
   std::vector<Path> paths;
   std::vector<Region> regions;
   std::vector<Field> fields;
-  double host_seconds = 0.0;  ///< not serialized: it differs between runs
+  std::vector<Output> outputs;  ///< names unique within the sample
+  double host_seconds = 0.0;    ///< not serialized: it differs between runs
 
   std::size_t vertex_count() const { return vertices.size() / 3; }
   std::size_t tet_count() const { return tets.size() / 4; }
@@ -57,7 +66,8 @@ double bbox_diagonal(const std::vector<double>& vertices);
 
 /// Checks what the host wrote: non-empty mesh, finite coordinates, indices in range, tets
 /// positively oriented and not degenerate (volume above 1e-12 of the bbox diagonal cubed),
-/// triangles and tags consistent, field sizes, finite field values, control point IDs unique.
+/// triangles and tags consistent, field sizes, finite field values, control point IDs unique,
+/// output names non-empty and unique, output values finite.
 /// Returns "" when valid, else the first problem found.
 std::string validate(const Sample& s);
 

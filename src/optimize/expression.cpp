@@ -164,9 +164,18 @@ class Parser {
     }
   }
 
+  int output_index(const Token& t) {
+    int index = -1;
+    if (t.kind != Token::Name) error_at(t, "expected an output name, got");
+    if (cadinterp_find_output(asset_, t.text.c_str(), &index) != CADINTERP_OK)
+      error_at(t, "the asset has no output", CADINTERP_E_NOT_FOUND);
+    return index;
+  }
+
   cadinterp_optimize_term quantity() {
     const Token name = next();
     if (name.kind != Token::Name) error_at(name, "expected a quantity, got");
+    int bare_output = -1;  // a quantity's name wins over an output of the same name
     cadinterp_optimize_term q;
     cadinterp_optimize_term_init(&q, CADINTERP_OPTIMIZE_VOLUME);
     const std::string& s = name.text;
@@ -211,6 +220,14 @@ class Parser {
         }
       }
       expect(")");
+    } else if (s == "output") {
+      expect("(");
+      q.quantity = CADINTERP_OPTIMIZE_OUTPUT;
+      q.field = output_index(next());
+      expect(")");
+    } else if (cadinterp_find_output(asset_, s.c_str(), &bare_output) == CADINTERP_OK) {
+      q.quantity = CADINTERP_OPTIMIZE_OUTPUT;
+      q.field = bare_output;
     } else {
       error_at(name, "unknown quantity");
     }
@@ -226,7 +243,7 @@ class Parser {
 void check_components(const cadinterp_asset* asset, const std::vector<Token>& tokens,
                       const std::vector<cadinterp_optimize_term>& terms) {
   for (const cadinterp_optimize_term& q : terms) {
-    if (q.field < 0) continue;
+    if (q.field < 0 || q.quantity == CADINTERP_OPTIMIZE_OUTPUT) continue;
     cadinterp_field_info f;
     cadinterp_field(asset, q.field, &f);
     if (q.component >= f.components)

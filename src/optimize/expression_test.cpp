@@ -48,6 +48,16 @@ TEST(Expression, ParsesTermsAndWeights) {
   EXPECT_DOUBLE_EQ(p.terms[4].direction[0], 1.0);
   EXPECT_EQ(p.terms[5].field, -1);
   EXPECT_EQ(p.terms[5].region, 0);
+  // Outputs: output(NAME) or the bare name; a quantity's name is never an output.
+  p = parse_expression(a, "output(brep_volume) - 2*exact_integral_q + volume");
+  ASSERT_EQ(p.status, CADINTERP_OK) << p.error;
+  ASSERT_EQ(p.terms.size(), 3u);
+  EXPECT_EQ(p.terms[0].quantity, CADINTERP_OPTIMIZE_OUTPUT);
+  EXPECT_EQ(p.terms[0].field, 0);
+  EXPECT_EQ(p.terms[1].quantity, CADINTERP_OPTIMIZE_OUTPUT);
+  EXPECT_EQ(p.terms[1].field, 1);
+  EXPECT_DOUBLE_EQ(p.terms[1].weight, -2);
+  EXPECT_EQ(p.terms[2].quantity, CADINTERP_OPTIMIZE_VOLUME);
   const auto c = parse_constraint(a, "volume <= 1.2e4");
   ASSERT_EQ(c.status, CADINTERP_OK) << c.error;
   EXPECT_EQ(c.upper, 1.2e4);
@@ -88,6 +98,10 @@ TEST(Expression, ErrorsNameTheTokenAndColumn) {
       {"volume < 3", true, CADINTERP_E_INVALID_ARGUMENT, "column 8: unexpected character '<'"},
       {"volume <= mass", true, CADINTERP_E_INVALID_ARGUMENT,
        "column 11: expected a number, got 'mass'"},
+      {"output(volume)", false, CADINTERP_E_NOT_FOUND,
+       "column 8: the asset has no output 'volume'"},
+      {"output(brep_volume", false, CADINTERP_E_INVALID_ARGUMENT,
+       "column 19: expected ')', got end of expression"},
       {"mass volume", false, CADINTERP_E_INVALID_ARGUMENT,
        "column 6: expected '+', '-' or the end, got 'volume'"},
   };

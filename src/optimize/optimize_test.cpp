@@ -68,7 +68,10 @@ TEST(Optimize, GradientsOfEveryQuantityMatchCentralDifferences) {
                               "max(q)",
                               "max(s, p=4)",
                               "max(q, ks=20)",
-                              "2*integral(q) - 0.5*area"};
+                              "2*integral(q) - 0.5*area",
+                              "output(brep_volume)",
+                              "exact_integral_q",
+                              "2*output(exact_integral_q) - brep_volume + volume"};
   for (const char* q : quantities) {
     int f = -1;
     ASSERT_EQ(cadinterp_optimize_add_constraint(p, -HUGE_VAL, HUGE_VAL, &f), CADINTERP_OK);
@@ -106,19 +109,35 @@ TEST(Optimize, GradientsOfEveryQuantityMatchCentralDifferences) {
   EXPECT_LE(v[15], max_q + std::log(27.0) / 20.0 + 0.1) << "KS <= max + ln(N) / rho";
 }
 
+// Point i (1-based) of the Halton sequence in [0,1]^K (bases 2, 3, 5, 7, 11).
+void halton(int i, int K, double* x) {
+  static const int kPrimes[5] = {2, 3, 5, 7, 11};
+  for (int d = 0; d < K; ++d) {
+    double f = 1.0, r = 0.0;
+    for (int n = i; n > 0; n /= kPrimes[d]) f /= kPrimes[d], r += f * (n % kPrimes[d]);
+    x[d] = r;
+  }
+}
+
+// The minimizer of integral(q) over the box: x_d = t_d for d >= 1, x0 by a 1-D search.
+std::vector<double> known_minimizer(const BoxHost& h, int K) {
+  std::vector<double> truth(kTarget.begin(), kTarget.begin() + K);
+  truth[0] = golden([&](double x0) {
+    truth[0] = x0;
+    return h.integral_q(truth.data());
+  });
+  return truth;
+}
+
 // The interpolant's accuracy on integral(q): max |interpolated - closed form| over 200 points
 // of a Halton sequence in the box (fixed parameters at their value).
 double interpolation_error(cadinterp_optimize_problem* p, const BoxHost& h, int K, int fixed = -1,
                            double fixed_value = 0) {
-  static const int kPrimes[5] = {2, 3, 5, 7, 11};
   double worst = 0.0;
   for (int i = 1; i <= 200; ++i) {
     double x[5];
-    for (int d = 0; d < K; ++d) {
-      double f = 1.0, r = 0.0;
-      for (int n = i; n > 0; n /= kPrimes[d]) f /= kPrimes[d], r += f * (n % kPrimes[d]);
-      x[d] = d == fixed ? fixed_value : r;
-    }
+    halton(i, K, x);
+    if (fixed >= 0) x[fixed] = fixed_value;
     double v[4];
     EXPECT_EQ(cadinterp_optimize_evaluate(p, x, v, nullptr), CADINTERP_OK);
     worst = std::max(worst, std::fabs(v[0] - h.integral_q(x)));
@@ -151,7 +170,7 @@ struct Case {
 
 class Minimizer : public ::testing::TestWithParam<Case> {};
 
-// min integral(q): x_d = t_d for d >= 1, x0 by a 1-D search on the closed form.
+// min integral(q) (known_minimizer).
 TEST_P(Minimizer, FindsTheKnownMinimizer) {
   const Case c = GetParam();
   const OpenedAsset* a = asset(c.K, c.degree);
@@ -162,11 +181,7 @@ TEST_P(Minimizer, FindsTheKnownMinimizer) {
   cadinterp_optimize_result r{};
   r.struct_size = sizeof r;
   ASSERT_EQ(cadinterp_optimize_solve(p, nullptr, &r), CADINTERP_OK) << cadinterp_optimize_error(p);
-  std::vector<double> truth(kTarget.begin(), kTarget.begin() + c.K);
-  truth[0] = golden([&](double x0) {
-    truth[0] = x0;
-    return h.integral_q(truth.data());
-  });
+  const std::vector<double> truth = known_minimizer(h, c.K);
   expect_minimizer(h, r, truth, interpolation_error(p, h, c.K),
                    "K=" + std::to_string(c.K) + (c.degree == 1 ? " linear" : " cubic"));
   EXPECT_EQ(r.linear_asset, c.degree == 1);
@@ -175,6 +190,56 @@ TEST_P(Minimizer, FindsTheKnownMinimizer) {
   EXPECT_GT(r.evaluations, r.iterations);
   EXPECT_LE(r.constraint_violation, 0.0);
   EXPECT_EQ(r.refused_evaluations, 0) << "no wall in this asset";
+}
+
+// Per-sample outputs against the host's closed forms and against the same quantities of the
+// interpolated mesh, at 200 Halton points; then the minimizer of the output objective.
+TEST_P(Minimizer, OutputsMatchTheHostAndFindTheMinimizer) {
+  const Case c = GetParam();
+  const OpenedAsset* a = asset(c.K, c.degree);
+  ASSERT_TRUE(a);
+  const BoxHost& h = *a->host;
+  Problem p(a->asset);
+  ASSERT_EQ(cadinterp_optimize_parse(p, 0, "exact_integral_q"), CADINTERP_OK);
+  for (const char* q : {"volume", "output(brep_volume)", "integral(q)"}) {
+    int f = -1;
+    ASSERT_EQ(cadinterp_optimize_add_constraint(p, -HUGE_VAL, HUGE_VAL, &f), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_optimize_parse(p, f, q), CADINTERP_OK);
+  }
+  double err[4] = {0, 0, 0, 0};  // output J, mesh volume, output volume, mesh J
+  for (int i = 1; i <= 200; ++i) {
+    double x[5], v[4];
+    halton(i, c.K, x);
+    ASSERT_EQ(cadinterp_optimize_evaluate(p, x, v, nullptr), CADINTERP_OK);
+    const double truth[4] = {h.integral_q(x), BoxHost::height(x), BoxHost::height(x),
+                             h.integral_q(x)};
+    for (int k = 0; k < 4; ++k) err[k] = std::max(err[k], std::fabs(v[k] - truth[k]) / truth[k]);
+  }
+  const std::string what = "K=" + std::to_string(c.K) + (c.degree == 1 ? " linear" : " cubic");
+  std::printf(
+      "[outputs] %s: max relative error vs host, output exact_integral_q %.2e, mesh integral(q) "
+      "%.2e, output brep_volume %.2e, mesh volume %.2e\n",
+      what.c_str(), err[0], err[3], err[2], err[1]);
+  // h is linear in x0 and every basis reproduces linear functions: the output is exact to double
+  // rounding, the mesh volume to the float mesh's (sums of ~1e-7 relative values).
+  EXPECT_LT(err[1], 1e-5);
+  EXPECT_LT(err[2], 1e-12);
+  // The build holds outputs to field_tolerance (2e-3) of their magnitude at its check points,
+  // times the report's max_error (above 1 where the sample budget ran out: 1..109 here); between
+  // check points the error is of the same order (measured at most 1.0x that product).
+  EXPECT_LT(err[0], 3 * 2e-3 * std::max(1.0, a->report.max_error)) << what;
+  // The same interpolation error as the mesh's field integral (measured within 10 % of it).
+  EXPECT_LT(err[0], 1.5 * err[3] + 1e-6) << what;
+
+  cadinterp_optimize_result r{};
+  r.struct_size = sizeof r;
+  Problem only(a->asset);
+  ASSERT_EQ(cadinterp_optimize_parse(only, 0, "output(exact_integral_q)"), CADINTERP_OK);
+  ASSERT_EQ(cadinterp_optimize_solve(only, nullptr, &r), CADINTERP_OK)
+      << cadinterp_optimize_error(only);
+  const std::vector<double> truth = known_minimizer(h, c.K);
+  // err[0] is relative; J <= 1.5 (1 + 5 + 0.75) bounds the absolute error.
+  expect_minimizer(h, r, truth, err[0] * 10.0, what + ", output(exact_integral_q)");
 }
 
 INSTANTIATE_TEST_SUITE_P(KAndDegree, Minimizer,

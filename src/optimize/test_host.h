@@ -1,10 +1,13 @@
 // The optimizer tests' host: a box [0,1] x [0,1] x [0,h] with h = 1 + x0 / 2, meshed with
-// 2 x 2 x 2 cubes of 6 tets, K = 2..5 parameters in [0,1], and closed-form fields:
+// cubes x cubes x cubes cubes of 6 tets (2 by default), K = 2..5 parameters in [0,1], and
+// closed-form fields:
 //   q (per vertex) = 1 + sum_d (x_d - t_d)^2 + z,   s (per tet) = 1 + x1 / 2 + z_centroid,
 // regions "bottom" (z = 0) and "top" (z = h). Its integrals are known in closed form:
 //   integral(q) = h (1 + sum_d (x_d - t_d)^2 + h / 2),   region_integral(q, top) = 1 + sum + h
-// so the minimizers are known. With fail_corner the host fails where x0 > 0.75 and x1 > 0.75.
-// Written against the builder's public C ABI (cadinterp_builder.h) only.
+// so the minimizers are known. Its scalar outputs are the same closed forms, computed by the
+// host on each sample as a CAD host computes a B-rep quantity: "brep_volume" = h (the box's
+// exact volume) and "exact_integral_q" = integral(q). With fail_corner the host fails where x0 >
+// 0.75 and x1 > 0.75. Written against the builder's public C ABI (cadinterp_builder.h) only.
 #pragma once
 
 #include <array>
@@ -24,10 +27,12 @@ struct BoxHost {
   std::string identity;
   cadinterp_host host{};
 
-  BoxHost(int k, std::array<double, 5> t, bool fail = false) : K(k), target(t), fail_corner(fail) {
+  BoxHost(int k, std::array<double, 5> t, bool fail = false, int cubes_per_axis = 2)
+      : K(k), target(t), fail_corner(fail), cubes(cubes_per_axis) {
     static const char* names[5] = {"height", "a", "b", "c", "d"};
     for (int d = 0; d < K; ++d) params.push_back({names[d], "1", 0.0, 1.0});
-    identity = "optimize test box K=" + std::to_string(K) + (fail ? " fail" : "");
+    identity = "optimize test box K=" + std::to_string(K) + (fail ? " fail" : "") +
+               (cubes == 2 ? "" : " cubes=" + std::to_string(cubes));
     for (double v : t) identity += " " + std::to_string(v);
     host.struct_size = sizeof host;
     host.name = "optimize test box";
@@ -56,8 +61,8 @@ struct BoxHost {
   }
   double top_integral_q(const double* x) const { return 1.0 + misfit(x) + height(x); }
 
-  static constexpr int kN = 2;  // cubes per axis
-  static int vid(int i, int j, int k) { return (k * (kN + 1) + j) * (kN + 1) + i; }
+  int cubes = 2;  // per axis: 6 cubes^3 tets (the benchmark's mesh is finer)
+  int vid(int i, int j, int k) const { return (k * (cubes + 1) + j) * (cubes + 1) + i; }
 
   static cadinterp_status regenerate(void* user, const double* x, cadinterp_sample* out) {
     const auto* h = static_cast<const BoxHost*>(user);
@@ -65,6 +70,7 @@ struct BoxHost {
       cadinterp_sample_set_message(out, "corner fails");
       return CADINTERP_E_INFEASIBLE;
     }
+    const int kN = h->cubes;
     std::vector<double> v;
     for (int k = 0; k <= kN; ++k)
       for (int j = 0; j <= kN; ++j)
@@ -83,7 +89,8 @@ struct BoxHost {
         for (int i = 0; i < kN; ++i) {
           uint32_t c[8];
           for (int b = 0; b < 8; ++b)
-            c[b] = static_cast<uint32_t>(vid(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)));
+            c[b] =
+                static_cast<uint32_t>(h->vid(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)));
           for (const auto& t : kTets)
             for (int q = 0; q < 4; ++q) tets.push_back(c[t[q]]);
         }
@@ -96,15 +103,18 @@ struct BoxHost {
     };
     for (int j = 0; j < kN; ++j)
       for (int i = 0; i < kN; ++i) {
-        quad(vid(i, j, 0), vid(i, j + 1, 0), vid(i + 1, j + 1, 0), vid(i + 1, j, 0), 0);
-        quad(vid(i, j, kN), vid(i + 1, j, kN), vid(i + 1, j + 1, kN), vid(i, j + 1, kN), 1);
+        quad(h->vid(i, j, 0), h->vid(i, j + 1, 0), h->vid(i + 1, j + 1, 0), h->vid(i + 1, j, 0), 0);
+        quad(h->vid(i, j, kN), h->vid(i + 1, j, kN), h->vid(i + 1, j + 1, kN), h->vid(i, j + 1, kN),
+             1);
       }
     for (int k = 0; k < kN; ++k)
       for (int s = 0; s < kN; ++s) {
-        quad(vid(s, 0, k), vid(s + 1, 0, k), vid(s + 1, 0, k + 1), vid(s, 0, k + 1), 2);
-        quad(vid(s, kN, k), vid(s, kN, k + 1), vid(s + 1, kN, k + 1), vid(s + 1, kN, k), 2);
-        quad(vid(0, s, k), vid(0, s, k + 1), vid(0, s + 1, k + 1), vid(0, s + 1, k), 2);
-        quad(vid(kN, s, k), vid(kN, s + 1, k), vid(kN, s + 1, k + 1), vid(kN, s, k + 1), 2);
+        quad(h->vid(s, 0, k), h->vid(s + 1, 0, k), h->vid(s + 1, 0, k + 1), h->vid(s, 0, k + 1), 2);
+        quad(h->vid(s, kN, k), h->vid(s, kN, k + 1), h->vid(s + 1, kN, k + 1), h->vid(s + 1, kN, k),
+             2);
+        quad(h->vid(0, s, k), h->vid(0, s, k + 1), h->vid(0, s + 1, k + 1), h->vid(0, s + 1, k), 2);
+        quad(h->vid(kN, s, k), h->vid(kN, s + 1, k), h->vid(kN, s + 1, k + 1), h->vid(kN, s, k + 1),
+             2);
       }
     return cadinterp_sample_set_mesh(out, v.data(), v.size() / 3, tets.data(), tets.size() / 4,
                                      tris.data(), tags.data(), tags.size());
@@ -130,6 +140,9 @@ struct BoxHost {
         cadinterp_sample_add_field(out, "q", CADINTERP_PER_VERTEX, 1, q.data(), q.size());
     if (st == CADINTERP_OK)
       st = cadinterp_sample_add_field(out, "s", CADINTERP_PER_TET, 1, s.data(), s.size());
+    if (st == CADINTERP_OK) st = cadinterp_sample_add_output(out, "brep_volume", height(x), "1");
+    if (st == CADINTERP_OK)
+      st = cadinterp_sample_add_output(out, "exact_integral_q", h->integral_q(x), nullptr);
     return st;
   }
 

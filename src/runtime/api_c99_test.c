@@ -24,7 +24,8 @@ int main(void) {
   CHECK(strcmp(cadinterp_version(), "1.0.0") == 0);
   CHECK(cadinterp_version_number() == CADINTERP_VERSION_NUMBER);
   cadinterp_format_version(&major, &minor);
-  CHECK(major == 1 && minor == 2); /* 1.2: required features */
+  CHECK(major == 1 && minor == 3); /* 1.3: per-sample scalar outputs */
+  CHECK(cadinterp_output_count(NULL) == 0);
   for (s = CADINTERP_OK; s <= CADINTERP_E_NOT_FOUND; ++s)
     CHECK(cadinterp_status_string((cadinterp_status)s) != NULL);
   CHECK(strcmp(cadinterp_status_string((cadinterp_status)999), "unknown status") == 0);

@@ -366,6 +366,70 @@ cadinterp_status cadinterp_eval_integral(cadinterp_workspace* ws, const double* 
   CADINTERP_CATCH_END(&ws->error)
 }
 
+int cadinterp_output_count(const cadinterp_asset* a) {
+  return a ? static_cast<int>(a->outputs.size()) : 0;
+}
+
+cadinterp_status cadinterp_output(const cadinterp_asset* a, int i, const char** name,
+                                  const char** unit) {
+  if (!a || !name || i < 0 || i >= static_cast<int>(a->outputs.size()))
+    return CADINTERP_E_INVALID_ARGUMENT;
+  *name = a->outputs[static_cast<std::size_t>(i)].name.c_str();
+  if (unit) *unit = a->outputs[static_cast<std::size_t>(i)].unit.c_str();
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_find_output(const cadinterp_asset* a, const char* name, int* index) {
+  if (!a || !name || !index) return CADINTERP_E_INVALID_ARGUMENT;
+  for (std::size_t i = 0; i < a->outputs.size(); ++i)
+    if (a->outputs[i].name == name) {
+      *index = static_cast<int>(i);
+      return CADINTERP_OK;
+    }
+  return CADINTERP_E_NOT_FOUND;
+}
+
+cadinterp_status cadinterp_eval_outputs(cadinterp_workspace* ws, const double* x,
+                                        const int* outputs, int output_count, double* values,
+                                        double* grad) {
+  if (!ws) return CADINTERP_E_INVALID_ARGUMENT;
+  if (!x || !values) return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "x or values is NULL");
+  if (output_count < 0 || (output_count > 0 && !outputs))
+    return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "outputs is NULL or output_count negative");
+  const cadinterp_asset& a = *ws->asset;
+  for (int i = 0; i < output_count; ++i)
+    if (outputs[i] < 0 || outputs[i] >= static_cast<int>(a.outputs.size()))
+      return fail(ws, CADINTERP_E_INVALID_ARGUMENT,
+                  "output index " + std::to_string(outputs[i]) + " out of range (the asset has " +
+                      std::to_string(a.outputs.size()) + ")");
+  CADINTERP_CATCH_BEGIN
+  const cadinterp::core::CompiledBasis& basis = a.reader->basis();
+  int e = -1;
+  const cadinterp_status located = cadinterp::runtime::locate_feasible(ws, x, &e);
+  if (located != CADINTERP_OK) return located;
+  cadinterp::core::BasisWeights w;
+  basis.eval_element(e, x, ws->basis_ws, grad != nullptr, &w);
+  const int K = basis.dim();
+  // Nothing fails past the checks above, so values and grad are written as they are summed.
+  for (int i = 0; i < output_count; ++i) {
+    const std::vector<double>& o = a.outputs[static_cast<std::size_t>(outputs[i])].values;
+    double v = 0.0;
+    for (int t = 0; t < w.count; ++t) v += w.psi[t] * o[static_cast<std::size_t>(w.samples[t])];
+    values[i] = v;
+    if (grad)
+      for (int d = 0; d < K; ++d) {
+        double g = 0.0;
+        for (int t = 0; t < w.count; ++t)
+          g += w.dpsi[d * w.count + t] * o[static_cast<std::size_t>(w.samples[t])];
+        grad[static_cast<std::size_t>(i) * static_cast<std::size_t>(K) +
+             static_cast<std::size_t>(d)] = g;
+      }
+  }
+  ws->error.clear();
+  return CADINTERP_OK;
+  CADINTERP_CATCH_END(&ws->error)
+}
+
 // The deprecated names (cadinterp.h, "Deprecated names"): exported for one release.
 
 int cadinterp_dim(const cadinterp_asset* a) { return cadinterp_parameter_count(a); }

@@ -19,6 +19,18 @@
 
 namespace cadinterp::runtime {
 
+cadinterp_status locate_feasible(cadinterp_workspace* ws, const double* x, int* element) {
+  const core::CompiledBasis& basis = ws->asset->reader->basis();
+  const int e = basis.locate(x);
+  if (e < 0) return fail(ws, CADINTERP_E_OUTSIDE_DOMAIN, "x is outside the parameter box");
+  if (!basis.element_feasible(e))
+    return fail(
+        ws, CADINTERP_E_INFEASIBLE,
+        "x lies in element " + std::to_string(e) + ", which depends on an infeasible sample");
+  *element = e;
+  return CADINTERP_OK;
+}
+
 using format::DecodedArray;
 using format::DecodedElement;
 using format::Topology;
@@ -56,14 +68,10 @@ cadinterp_status prepare(cadinterp_workspace* ws, const double* x, const int* fi
   for (int i = 0; i < field_count; ++i)
     if (fields[i] < 0 || fields[i] >= static_cast<int>(a.fields.size()))
       return fail(ws, CADINTERP_E_INVALID_ARGUMENT, "field index out of range");
-  const core::CompiledBasis& basis = a.reader->basis();
-  const int e = basis.locate(x);
-  if (e < 0) return fail(ws, CADINTERP_E_OUTSIDE_DOMAIN, "x is outside the parameter box");
-  if (!basis.element_feasible(e))
-    return fail(
-        ws, CADINTERP_E_INFEASIBLE,
-        "x lies in element " + std::to_string(e) + ", which depends on an infeasible sample");
-  basis.eval_element(e, x, ws->basis_ws, want_grad, w);
+  int e = -1;
+  const cadinterp_status located = locate_feasible(ws, x, &e);
+  if (located != CADINTERP_OK) return located;
+  a.reader->basis().eval_element(e, x, ws->basis_ws, want_grad, w);
   ws->fields = nullptr;
   ws->element = a.cache.get(e, *a.reader);
   if (need_fields) ws->fields = &a.cache.fields(*ws->element, *a.reader);

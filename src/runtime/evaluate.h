@@ -19,6 +19,10 @@ cadinterp_status evaluate_subset(cadinterp_workspace* ws, const double* x,
                                  const std::uint32_t* tets, std::size_t tet_subset_count,
                                  const int* fields, int field_count, cadinterp_mesh* out);
 
+// The feasible element holding x (*element), or CADINTERP_E_OUTSIDE_DOMAIN /
+// CADINTERP_E_INFEASIBLE with the workspace's message set.
+cadinterp_status locate_feasible(cadinterp_workspace* ws, const double* x, int* element);
+
 cadinterp_status evaluate_grad(cadinterp_workspace* ws, const double* x, const int* fields,
                                int field_count, cadinterp_mesh_grad* out);
 

@@ -34,6 +34,8 @@ if(CADINTERP_BUILD_TESTING)
     LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_integral_tests ${CMAKE_CURRENT_LIST_DIR}/integral_test.cpp
     LIBS cadinterp cadinterp_format)
+  cadinterp_add_test(runtime_outputs_tests ${CMAKE_CURRENT_LIST_DIR}/outputs_test.cpp
+    LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_names_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_names_test.cpp
     LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_alloc_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_alloc_test.cpp

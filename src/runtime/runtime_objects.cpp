@@ -26,6 +26,10 @@ std::unique_ptr<cadinterp_asset> make_asset(std::unique_ptr<format::AssetReader>
       if (r->face_tags()) s.tags.assign(r->face_tags()->begin(), r->face_tags()->end());
       a->regions.push_back(std::move(s));
     }
+  if (idx.outputs())  // format 1.3; checked at open (values finite where elements use them)
+    for (const auto* o : *idx.outputs())
+      a->outputs.push_back({o->name()->str(), o->unit() ? o->unit()->str() : std::string(),
+                            std::vector<double>(o->values()->begin(), o->values()->end())});
   if (const auto* p = idx.provenance()) {
     a->builder_version = p->builder_version() ? p->builder_version()->str() : "";
     a->host = p->host() ? p->host()->str() : "";

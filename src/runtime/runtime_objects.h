@@ -24,6 +24,12 @@ struct FieldSlot {
   std::string unit;  // "" when the asset gives none (format 1.0, or a field without a unit)
 };
 
+// A per-sample scalar output (format 1.3): one value per basis sample.
+struct OutputSlot {
+  std::string name, unit;
+  std::vector<double> values;
+};
+
 struct RegionSlot {
   std::string name, kind;
   std::vector<std::int32_t> tags;
@@ -36,6 +42,7 @@ struct cadinterp_asset {
   std::vector<std::string> names, units;
   std::vector<cadinterp::runtime::FieldSlot> fields;
   std::vector<cadinterp::runtime::RegionSlot> regions;
+  std::vector<cadinterp::runtime::OutputSlot> outputs;
   std::string builder_version, host, options;
   std::vector<std::vector<double>> infeasible_x;  // host failures recorded by the builder
   std::vector<std::string> infeasible_message;

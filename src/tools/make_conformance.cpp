@@ -70,6 +70,11 @@ format::SyntheticSpec with_units(format::SyntheticSpec s) {
   return s;
 }
 
+format::SyntheticSpec with_outputs(format::SyntheticSpec s) {
+  s.outputs = true;
+  return s;
+}
+
 // Expected outputs at x: positions, requested fields, and (if feasible) their K derivatives.
 void expect_point(std::ofstream& out, const format::SyntheticAsset& a,
                   const std::vector<double>& x) {
@@ -110,6 +115,26 @@ void expect_point(std::ofstream& out, const format::SyntheticAsset& a,
   };
   emit("positions", ed.positions, 0, ed.vertex_count * 3);
   if (!ed.fields.empty()) emit("field0", ed.fields, 0, ed.vertex_count);  // temperature
+  if (a.content.outputs.empty()) return;
+  // Outputs (format 1.3): the same weights on the per-sample values.
+  out << "outputs";
+  for (const format::OutputInfo& o : a.content.outputs) {
+    double s = 0.0;
+    for (int t = 0; t < w.count; ++t)
+      s += w.psi[t] * o.values[static_cast<std::size_t>(w.samples[t])];
+    out << ' ' << hex(s);
+  }
+  out << '\n';
+  for (int d = 0; d < K; ++d) {
+    out << "doutputs";
+    for (const format::OutputInfo& o : a.content.outputs) {
+      double s = 0.0;
+      for (int t = 0; t < w.count; ++t)
+        s += w.dpsi[d * w.count + t] * o.values[static_cast<std::size_t>(w.samples[t])];
+      out << ' ' << hex(s);
+    }
+    out << '\n';
+  }
 }
 
 // Rewrites the index checksum after an in-place index edit.
@@ -137,7 +162,7 @@ void set_le(std::vector<std::uint8_t>& b, std::size_t at, std::uint64_t v, int n
 }
 
 // The valid cases: one per basis dimension and degree, codec, fields or none, an infeasible
-// corner, and the format 1.1 feature (field units).
+// corner, the format 1.1 feature (field units) and the format 1.3 one (outputs).
 std::vector<Valid> valid_cases() {
   return {
       {"k1_linear", "K=1 linear, fields", make_spec(1, core::Degree::Linear, 9, true, false),
@@ -157,6 +182,10 @@ std::vector<Valid> valid_cases() {
       // Format 1.1 (field units); every case above uses nothing of 1.1 and stays a 1.0 file.
       {"k1_units", "K=1 linear, fields with units (format 1.1)",
        with_units(make_spec(1, core::Degree::Linear, 9, true, false)), format::Codec::Raw},
+      // Format 1.3 (per-sample scalar outputs, interpolated with the basis weights).
+      {"k2_outputs", "K=2 cubic, a scalar output per sample (format 1.3), infeasible corner",
+       with_outputs(make_spec(2, core::Degree::Cubic, 30, true, true)),
+       format::Codec::QuantDeltaZstd},
   };
 }
 
@@ -182,6 +211,9 @@ std::vector<std::uint8_t> write_valid_case(
   for (std::size_t f = 0; f < a.content.fields.size(); ++f)
     exp << "unit " << f << ' '
         << (a.content.fields[f].unit.empty() ? "-" : a.content.fields[f].unit) << '\n';
+  for (std::size_t i = 0; i < a.content.outputs.size(); ++i)
+    exp << "output " << i << ' ' << a.content.outputs[i].name << ' '
+        << (a.content.outputs[i].unit.empty() ? "-" : a.content.outputs[i].unit) << '\n';
   std::mt19937_64 rng(17);
   std::vector<std::vector<double>> points;
   for (int i = 0; i < 4; ++i) {

@@ -1,9 +1,11 @@
 // The builder half of field units (format 1.1): cadinterp_sample_set_field_unit on the object a
 // host's simulate callback writes into, and the sample store's serialization of the units
-// (version 2, still reading the version 1 bytes of stores written before units existed).
+// (version 2, still reading the version 1 bytes of stores written before units existed), and
+// cadinterp_sample_add_output on the same object (scalar outputs, store version 3).
 // Lives with the tools because the builder's own test target belongs to another component.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -67,15 +69,16 @@ TEST(SampleFieldUnit, StoreBytesKeepUnitsAndReadVersion1) {
   EXPECT_EQ(back.fields[1].unit, "mm");
   EXPECT_EQ(back.fields[1].values, s.sample.fields[1].values);
   EXPECT_EQ(cadinterp::mesh::serialize(back), bytes);
-  // Every prefix is refused (the units are part of a version 2 sample).
+  // Every prefix is refused (the units are part of every sample from version 2 on).
   for (std::size_t n = 0; n < bytes.size(); ++n)
     EXPECT_THROW(cadinterp::mesh::deserialize(bytes.data(), n), std::runtime_error) << n;
 
-  // Version 1 (a store written before units): the same bytes without the trailing unit strings
-  // (one u64 length and its text per field), version word 1. Read with no units.
+  // Version 1 (a store written before units): the same bytes without the trailing output count
+  // (version 3, a u64: 0 here) and unit strings (one u64 length and its text per field),
+  // version word 1. Read with no units.
   std::vector<std::uint8_t> v1 = bytes;
   const std::size_t units = 2 * 8 + 2;  // "" and "mm"
-  v1.resize(v1.size() - units);
+  v1.resize(v1.size() - 8 - units);
   const std::uint32_t one = 1;
   std::memcpy(v1.data() + 4, &one, 4);
   const Sample old = cadinterp::mesh::deserialize(v1.data(), v1.size());
@@ -84,10 +87,32 @@ TEST(SampleFieldUnit, StoreBytesKeepUnitsAndReadVersion1) {
   EXPECT_EQ(old.fields[1].values, s.sample.fields[1].values);
   EXPECT_EQ(old.vertices, s.sample.vertices);
   // Any other version is refused.
-  std::vector<std::uint8_t> v3 = bytes;
-  const std::uint32_t three = 3;
-  std::memcpy(v3.data() + 4, &three, 4);
-  EXPECT_THROW(cadinterp::mesh::deserialize(v3.data(), v3.size()), std::runtime_error);
+  std::vector<std::uint8_t> v4 = bytes;
+  const std::uint32_t four = 4;
+  std::memcpy(v4.data() + 4, &four, 4);
+  EXPECT_THROW(cadinterp::mesh::deserialize(v4.data(), v4.size()), std::runtime_error);
+}
+
+TEST(SampleOutput, AddOutputChecksAndValidates) {
+  cadinterp_sample s = one_tet_sample();
+  EXPECT_EQ(cadinterp_sample_add_output(&s, "brep_volume", 2.5, "mm^3"), CADINTERP_OK);
+  EXPECT_EQ(cadinterp_sample_add_output(&s, "compliance", -1.0, nullptr), CADINTERP_OK);
+  EXPECT_EQ(cadinterp_sample_add_output(&s, "brep_volume", 3.0, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_sample_add_output(&s, "", 3.0, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_sample_add_output(&s, nullptr, 3.0, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_sample_add_output(nullptr, "x", 3.0, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  ASSERT_EQ(s.sample.outputs.size(), 2u);
+  EXPECT_EQ(s.sample.outputs[0].unit, "mm^3");
+  EXPECT_EQ(s.sample.outputs[1].unit, "");
+  EXPECT_EQ(cadinterp::mesh::validate(s.sample), "");
+  const std::vector<std::uint8_t> bytes = cadinterp::mesh::serialize(s.sample);
+  const Sample back = cadinterp::mesh::deserialize(bytes.data(), bytes.size());
+  ASSERT_EQ(back.outputs.size(), 2u);
+  EXPECT_EQ(back.outputs[1].value, -1.0);
+  // A non-finite value is accepted by the call and refused after the callback (validate).
+  EXPECT_EQ(cadinterp_sample_add_output(&s, "bad", std::nan(""), nullptr), CADINTERP_OK);
+  EXPECT_NE(cadinterp::mesh::validate(s.sample).find("'bad' is not finite"), std::string::npos);
 }
 
 }  // namespace

@@ -71,6 +71,10 @@ export function parseExpected(group, name) {
       case 'dpositions': cur.dpositions.push(nums()); break;
       case 'field0': cur.field0 = nums(); break;
       case 'dfield0': cur.dfield0.push(nums()); break;
+      // Format 1.3 outputs: checked by the native runner (cadinterp_eval_outputs); parsed here.
+      case 'output': (out.outputs ??= []).push({ index: Number(tok[1]), name: tok[2], unit: tok[3] }); break;
+      case 'outputs': cur.outputs = nums(); break;
+      case 'doutputs': (cur.doutputs ??= []).push(nums()); break;
       default: throw new Error(`${group}/${name}: unknown line ${line}`);
     }
   }

@@ -51,6 +51,13 @@ static void add_edge(analytic_brep* b, int64_t id, int u, int v) {
   e->ends[1] = v;
 }
 
+double analytic_bracket_volume(const double* x) {
+  /* width * thickness * (flange + leg + bend), the bend an annular sector whose area is
+   * angle * (mid-surface radius 1.5 t) * t (Pappus). */
+  const double t = x[2], angle = x[3] * (BRACKET_PI / 180.0);
+  return BRACKET_WIDTH * t * (x[0] + x[1] + 1.5 * t * angle);
+}
+
 void analytic_bracket_shape(const analytic_model* m, const double* x, analytic_shape* s) {
   analytic_bracket_geom* g = &s->geom.bracket;
   analytic_brep* b = &s->brep;

@@ -76,6 +76,10 @@ static cadinterp_status host_references(void* user, const double* x, cadinterp_s
                                          region->face_tag_count);
   }
   analytic_references_free(&r);
+  /* A per-sample scalar output in closed form: the bracket's exact volume, which the
+   * interpolated mesh approximates (chords of the bend) and cadinterp_eval_outputs interpolates. */
+  if (status == CADINTERP_OK && model->kind == ANALYTIC_BRACKET)
+    status = cadinterp_sample_add_output(out, "exact_volume", analytic_bracket_volume(x), "mm^3");
   return status;
 }
 

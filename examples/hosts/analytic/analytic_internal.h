@@ -111,6 +111,8 @@ extern const cadinterp_parameter_desc analytic_bracket_parameters[4];
 extern const analytic_field_desc analytic_bracket_fields[2];
 extern const analytic_region analytic_bracket_regions[2];
 void analytic_bracket_shape(const analytic_model* m, const double* x, analytic_shape* s);
+/* The bracket's exact solid volume at x (the B-rep's, not the mesh's). */
+double analytic_bracket_volume(const double* x);
 void analytic_bracket_position(const analytic_shape* s, const int ijk[3], double p[3]);
 int32_t analytic_bracket_face_tag(const analytic_shape* s, int axis, int side, const int cell[3]);
 void analytic_bracket_field_at(const analytic_shape* s, int field, const double p[3],

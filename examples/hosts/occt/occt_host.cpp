@@ -585,7 +585,9 @@ cadinterp_status host_references(void* user, const double* x, cadinterp_sample* 
                                                              r.tags.data(), r.tags.size());
       if (s != CADINTERP_OK) return s;
     }
-    return CADINTERP_OK;
+    // The B-rep's exact volume as a per-sample output: interpolated without the mesh's
+    // discretization or mapping error (cadinterp_eval_outputs, `output(brep_volume)`).
+    return cadinterp_sample_add_output(out, "brep_volume", e.exact_volume, "mm^3");
   } catch (const std::bad_alloc&) {
     return CADINTERP_E_OUT_OF_MEMORY;
   } catch (const std::exception& ex) {
@@ -642,6 +644,11 @@ cadinterp_status host_simulate(void* user, const double* x, const cadinterp_host
     for (const auto& u : units)
       if (s == CADINTERP_OK && (u[0] != std::string("temperature") || m->thermal()))
         s = cadinterp_sample_set_field_unit(out, u[0], u[1]);
+    // The FEM's largest vertex stress as a per-sample output: a "max stress <= S" constraint on
+    // the host's own value, without a smooth maximum over the interpolated field.
+    if (s == CADINTERP_OK)
+      s = cadinterp_sample_add_output(
+          out, "max_von_mises", *std::max_element(f.von_mises.begin(), f.von_mises.end()), "MPa");
     return s;
   } catch (const std::bad_alloc&) {
     return CADINTERP_E_OUT_OF_MEMORY;
