@@ -84,9 +84,16 @@ class Basis {
   }
   int bspline_count() const { return live_bsplines_; }
 
+  /// Refinement finds the B-splines over an element through the per-leaf index (the live
+  /// B-splines overlapping each leaf). With `on`, it scans every B-spline near the refined
+  /// element instead, as the unindexed algorithm did: slower, the same basis; tests compare the
+  /// two.
+  void set_reference_search(bool on) { reference_search_ = on; }
+
  private:
   struct Bspline {
     BsplineKey key;
+    IBox support;                     // support_box(key): tested against leaves at every step
     std::vector<Coefficient> coeffs;  // increasing sample id
     bool alive = true;
   };
@@ -105,7 +112,8 @@ class Basis {
 
   // Algorithm 1 steps (refine.cpp).
   std::vector<int> add_split_samples(const IBox& parent, int dir, Coord mid);
-  void uniformize(const IBox& box, int dir, int min_level, std::vector<int>& near);
+  void uniformize(const IBox& box, const std::vector<int>& box_leaves, int dir, int min_level,
+                  std::vector<int>& near);
   void index_bspline(int b, bool add);
   void refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& target,
                        const std::vector<int>& candidates);
@@ -121,6 +129,7 @@ class Basis {
   std::vector<Bspline> bsplines_;
   std::unordered_map<BsplineKey, int, BsplineKeyHash> bspline_id_;
   int live_bsplines_ = 0;
+  bool reference_search_ = false;
 };
 
 /// Grid units within which y of Eq. 10 is snapped to the integer grid (see the file comment).
