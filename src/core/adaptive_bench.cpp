@@ -4,9 +4,11 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "core/adaptive.h"
+#include "core/core_test_util.h"
 
 namespace cadinterp::core {
 namespace {
@@ -42,6 +44,32 @@ BENCHMARK(BM_Adaptive5D)
     ->Args({1, 2000})
     ->Args({3, 500})
     ->Args({3, 2000})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+// Refinement alone on a 5-D cubic basis (random splits, fixed seed), through the per-leaf index
+// against the scan of every nearby B-spline (Basis::set_reference_search): the same basis, so
+// the ratio of the two is the index's gain on this machine and load.
+void BM_Refine5DCubic(benchmark::State& state) {
+  const bool reference = state.range(0) != 0;
+  int bsplines = 0;
+  for (auto _ : state) {
+    Basis basis(5, Degree::Cubic);
+    basis.set_reference_search(reference);
+    std::mt19937_64 rng(7);
+    for (int d = 0; d < 5; ++d) {
+      const std::vector<int> leaves = basis.tree().leaves();
+      for (int leaf : leaves) basis.refine(leaf, d);
+    }
+    testing::random_splits(basis, rng, 40, 4);
+    bsplines = basis.bspline_count();
+  }
+  state.counters["bsplines"] = bsplines;
+}
+BENCHMARK(BM_Refine5DCubic)
+    ->ArgNames({"reference"})
+    ->Arg(0)
+    ->Arg(1)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 

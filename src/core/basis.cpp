@@ -111,6 +111,7 @@ void Basis::set_coeffs(int b, std::vector<Coefficient> coeffs) {
       coeffs.end());
   std::sort(coeffs.begin(), coeffs.end());
   bs.coeffs = std::move(coeffs);
+  bs.changed_in = refines_;
   if (bs.coeffs.empty()) kill_bspline(b);
 }
 

@@ -96,6 +96,7 @@ class Basis {
     IBox support;                     // support_box(key): tested against leaves at every step
     std::vector<Coefficient> coeffs;  // increasing sample id
     bool alive = true;
+    int changed_in = 0;  // the refine() call that last set coeffs (0: the constructor)
   };
 
   int add_sample(const IPoint& p);
@@ -117,7 +118,7 @@ class Basis {
   void index_bspline(int b, bool add);
   void refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& target,
                        const std::vector<int>& candidates);
-  void enforce_locality(const std::vector<int>& candidates);
+  void enforce_locality(const std::vector<int>& candidates, const std::vector<int>& shrunk);
   std::vector<Coefficient> reallocate(const Bspline& b) const;
 
   Degree degree_;
@@ -130,6 +131,7 @@ class Basis {
   std::unordered_map<BsplineKey, int, BsplineKeyHash> bspline_id_;
   int live_bsplines_ = 0;
   bool reference_search_ = false;
+  int refines_ = 0;  // refine() calls so far
 };
 
 /// Grid units within which y of Eq. 10 is snapped to the integer grid (see the file comment).

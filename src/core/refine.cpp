@@ -35,6 +35,7 @@ void axpy(std::vector<Coefficient>& dst, double w, const std::vector<Coefficient
 std::vector<int> Basis::refine(int leaf, int dir) {
   const KdTree::Node parent = tree_.node(leaf);
   const auto kids = tree_.split(leaf, dir);  // validates leaf, dir and level
+  ++refines_;
   const Coord mid = tree_.node(kids[1]).box.lo[dir];
   const int K = dim();
 
@@ -91,7 +92,19 @@ std::vector<int> Basis::refine(int leaf, int dir) {
                             });
     if (hits) candidates.push_back(b);
   }
-  enforce_locality(candidates);
+  // The leaves whose neighbourhood (B(e) linear, Bbar(e) cubic) can have lost samples: the
+  // children, and for cubic the leaves touching only one of them (a leaf touching both still
+  // sees every sample of the parent).
+  std::vector<int> shrunk{kids[0], kids[1]};
+  if (degree_ == Degree::Cubic)
+    for (int n : touching) {
+      const IBox& nb = tree_.node(n).box;
+      if (n != kids[0] && n != kids[1] &&
+          !(boxes_touch(nb, tree_.node(kids[0]).box, K) &&
+            boxes_touch(nb, tree_.node(kids[1]).box, K)))
+        shrunk.push_back(n);
+    }
+  enforce_locality(candidates, shrunk);
   return added;
 }
 
@@ -196,19 +209,33 @@ void Basis::refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& 
   }
 }
 
-void Basis::enforce_locality(const std::vector<int>& candidates) {
+void Basis::enforce_locality(const std::vector<int>& candidates, const std::vector<int>& shrunk) {
+  // Every B-spline was local before this refinement. One whose coefficients step 2 left alone
+  // can only lose locality on the leaves whose neighbourhood lost samples (`shrunk`): the other
+  // leaves' neighbourhoods are unchanged or gained samples. So only those leaves are tested for
+  // it, which spares most (coefficient, leaf) tests on deep cubic trees; B-splines step 2
+  // created or changed are tested on their whole support.
   std::vector<int> support_leaves;
   HolderCache holders;
+  const int K = dim();
   for (int b : candidates) {
     const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
     if (!bs.alive) continue;
     support_leaves.clear();
-    tree_.leaves_overlapping(bs.support, support_leaves);
+    if (bs.changed_in == refines_ || reference_search_) {
+      tree_.leaves_overlapping(bs.support, support_leaves);
+    } else {
+      for (int n : shrunk)
+        if (boxes_overlap(bs.support, tree_.node(n).box, K)) support_leaves.push_back(n);
+      if (support_leaves.empty()) continue;
+    }
     const bool local = std::all_of(bs.coeffs.begin(), bs.coeffs.end(), [&](const Coefficient& c) {
       return sample_is_local(c.first, support_leaves, holders);
     });
     if (local) continue;
     std::vector<Coefficient> moved = reallocate(bs);
+    support_leaves.clear();  // the target must be local on the whole support
+    tree_.leaves_overlapping(bs.support, support_leaves);
     for (const auto& [k, a] : moved)
       if (!sample_is_local(k, support_leaves, holders)) {
         throw std::logic_error("Basis::refine: reallocation target is not a local sample");
