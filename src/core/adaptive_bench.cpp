@@ -63,7 +63,7 @@ void BM_Refine5DCubic(benchmark::State& state) {
       const std::vector<int> leaves = basis.tree().leaves();
       for (int leaf : leaves) basis.refine(leaf, d);
     }
-    testing::random_splits(basis, rng, 40, 4);
+    testing::random_splits(basis, rng, 25, 4);
     bsplines = basis.bspline_count();
   }
   state.counters["bsplines"] = bsplines;

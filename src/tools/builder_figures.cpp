@@ -36,6 +36,22 @@ Run build(const cadinterp_host* host, const cadinterp_build_options& o, const st
   return r;
 }
 
+// The analytic host `model`, or null after printing why.
+const cadinterp_host* analytic_host(const char* model, const std::string& options) {
+  const char* err = nullptr;
+  const cadinterp_host* host = cadinterp_host_entry(model, options.c_str(), &err);
+  if (!host) std::fprintf(stderr, "%s: %s\n", model, err ? err : "?");
+  return host;
+}
+
+// The builder's defaults with the figures' budget of 400 samples.
+cadinterp_build_options figure_options() {
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 400;
+  return o;
+}
+
 // Host calls per kept sample and the error measured against the host (not the driver's own
 // estimate), one build per model at the figures' defaults.
 int host_calls_table(const std::string& bracket_options, int points, const std::string& path) {
@@ -44,16 +60,10 @@ int host_calls_table(const std::string& bracket_options, int points, const std::
     const std::string opts = !std::strcmp(model, "bracket")     ? bracket_options
                              : !std::strcmp(model, "foldplate") ? "edge=10"
                                                                 : "";
-    const char* err = nullptr;
-    const cadinterp_host* host = cadinterp_host_entry(model, opts.c_str(), &err);
-    if (!host) {
-      std::fprintf(stderr, "%s: %s\n", model, err ? err : "?");
-      return 1;
-    }
+    const cadinterp_host* host = analytic_host(model, opts);
+    if (!host) return 1;
     const mesh::Host h(*host);
-    cadinterp_build_options o;
-    cadinterp_build_options_init(&o);
-    o.max_samples = 400;
+    cadinterp_build_options o = figure_options();
     o.threads = 1;
     const Run r = build(host, o, path);
     const builder::AccuracyReport a = builder::measure_accuracy(path, h, points, 7);
@@ -85,17 +95,11 @@ int main(int argc, char** argv) {
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, path);
   for (const char* model : {"bracket", "plate"}) {
-    const char* err = nullptr;
     const cadinterp_host* host =
-        cadinterp_host_entry(model, std::strcmp(model, "bracket") ? "" : options.c_str(), &err);
-    if (!host) {
-      std::fprintf(stderr, "%s: %s\n", model, err ? err : "?");
-      return 1;
-    }
+        analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());
+    if (!host) return 1;
     const mesh::Host h(*host);
-    cadinterp_build_options o;
-    cadinterp_build_options_init(&o);
-    o.max_samples = 400;
+    cadinterp_build_options o = figure_options();
     std::printf("== %s (%s), K=%d\n", model, h.identity().c_str(), h.dim());
     Run one, two;
     for (int threads : {1, 2}) {
