@@ -129,7 +129,10 @@ void BM_HostCalls(benchmark::State& state) {
 }
 BENCHMARK(BM_HostCalls)
     ->ArgNames({"fn", "tol_e3", "reuse"})
-    ->ArgsProduct({{0, 1, 2}, {10, 2}, {0, 1}})
+    // The 3-D bump at 2e-3 (17,000 samples, 7 s) is left out: CI runs every benchmark once.
+    ->ArgsProduct({{0, 1}, {10, 2}, {0, 1}})
+    ->Args({2, 10, 0})
+    ->Args({2, 10, 1})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 
