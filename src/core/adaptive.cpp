@@ -73,6 +73,11 @@ class PointRows {
     if (feasible) *feasible = feasible_[static_cast<std::size_t>(it->second)] != 0;
     return it->second;
   }
+  /// The row of p if the host was asked already, else -1 (nothing is evaluated).
+  int find(const IPoint& p) const {
+    const auto it = index_.find(p);
+    return it == index_.end() ? -1 : it->second;
+  }
   bool feasible(const IPoint& p) {
     bool ok = false;
     row(p, &ok);
@@ -321,7 +326,17 @@ class AdaptiveDriver {
       if (rows_.feasible(centre_of(node, K_)) && terms_feasible(basis_.element_basis(leaf)))
         face_centres(node, pts);
     }
-    if (opt_.check_face_centres) rows_.ensure(pts);
+    if (opt_.check_face_centres && !opt_.reuse_face_centres) rows_.ensure(pts);
+  }
+
+  // The face centres an element's test uses: all of them, or with reuse_face_centres those the
+  // host has answered already (for a neighbour, for the parent's split decision, or as samples).
+  void test_faces(const KdTree::Node& node, std::vector<IPoint>& out) const {
+    if (!opt_.check_face_centres) return;
+    std::vector<IPoint> faces;
+    face_centres(node, faces);
+    for (const IPoint& p : faces)
+      if (!opt_.reuse_face_centres || rows_.find(p) >= 0) out.push_back(p);
   }
 
   // The wave's errors (§4.2's error at the element centre, and optionally at its face centres),
@@ -343,7 +358,7 @@ class AdaptiveDriver {
       const ElementBasis eb = basis_.element_basis(leaf);
       if (!ok || !terms_feasible(eb)) continue;
       std::vector<IPoint> at{c};
-      if (opt_.check_face_centres) face_centres(node, at);
+      test_faces(node, at);
       first.push_back(qs.size());
       leaves.push_back(leaf);
       for (const IPoint& p : at) {
@@ -355,11 +370,23 @@ class AdaptiveDriver {
     first.push_back(qs.size());
     std::vector<double> out;
     problem_.errors(qs, out);
+    std::vector<IPoint> split_faces;  // the split direction's test needs every face centre
     for (std::size_t l = 0; l < leaves.size(); ++l) {
       double err = 0;
       for (std::size_t i = first[l]; i < first[l + 1]; ++i) err = std::max(err, out[i]);
       if (err > opt_.tolerance) above.emplace_back(leaves[l], err);
     }
+    // The split directions' tests (below) need the face centres of every splittable direction,
+    // evaluated here in one batch and in the order the tests ask for them.
+    for (const auto& [leaf, err] : above) {
+      const KdTree::Node& node = tree_.node(leaf);
+      std::vector<IPoint> faces;
+      face_centres(node, faces);
+      for (int d = 0; d < K_; ++d)
+        if (node.level[d] < opt_.max_level)
+          split_faces.insert(split_faces.end(), faces.begin() + 2 * d, faces.begin() + 2 * d + 2);
+    }
+    rows_.ensure(split_faces);
     for (std::size_t i = 0; i < qs.size(); ++i) memo_.emplace(std::move(qs[i]), out[i]);
     qs.clear();
     for (const auto& [leaf, err] : above) {
@@ -387,7 +414,7 @@ class AdaptiveDriver {
     double err = answer(error_query(eb, crow, c, crow));
     if (opt_.check_face_centres) {
       std::vector<IPoint> faces;
-      face_centres(node, faces);
+      test_faces(node, faces);
       for (const IPoint& p : faces) {
         if (!std::isfinite(err)) break;
         bool ok = false;

@@ -43,6 +43,11 @@ struct AdaptiveOptions {
   ErrorMetric metric;       ///< empty: max_norm_error
   /// Measure the error at the 2K face centres too (see above); false: the centre only (§4.2).
   bool check_face_centres = true;
+  /// With check_face_centres: test each element at the face centres the host has answered
+  /// already (for a neighbour, for its parent's split direction, or as samples) and evaluate the
+  /// others only for the elements that fail, whose split direction needs them. An element that
+  /// passes then costs its centre alone, at the price of a test on fewer points.
+  bool reuse_face_centres = false;
   /// Split elements that depend on an infeasible sample (widest direction first), up to
   /// max_level, so that the infeasible region is confined to small elements.
   bool refine_infeasible = true;

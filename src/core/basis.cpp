@@ -84,7 +84,7 @@ int Basis::bspline_id(const BsplineKey& key) {
   const auto it = bspline_id_.find(key);
   if (it != bspline_id_.end()) return it->second;
   const int id = static_cast<int>(bsplines_.size());
-  bsplines_.push_back(Bspline{key, {}, true});
+  bsplines_.push_back(Bspline{key, support_box(key, degree_, dim()), {}, true});
   bspline_id_.emplace(key, id);
   ++live_bsplines_;
   index_bspline(id, true);
@@ -93,8 +93,7 @@ int Basis::bspline_id(const BsplineKey& key) {
 
 void Basis::index_bspline(int b, bool add) {
   std::vector<int> leaves;
-  tree_.leaves_overlapping(support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, dim()),
-                           leaves);
+  tree_.leaves_overlapping(bsplines_[static_cast<std::size_t>(b)].support, leaves);
   for (int leaf : leaves) {
     auto& list = leaf_bsplines_[static_cast<std::size_t>(leaf)];
     if (add)
@@ -112,6 +111,7 @@ void Basis::set_coeffs(int b, std::vector<Coefficient> coeffs) {
       coeffs.end());
   std::sort(coeffs.begin(), coeffs.end());
   bs.coeffs = std::move(coeffs);
+  bs.changed_in = refines_;
   if (bs.coeffs.empty()) kill_bspline(b);
 }
 
@@ -126,15 +126,16 @@ void Basis::kill_bspline(int b) {
 }
 
 std::vector<int> Basis::bsplines_overlapping(const std::vector<int>& leaves) const {
-  std::vector<char> seen(bsplines_.size(), 0);
+  // Sorting the union costs O(n log n) in the B-splines found; a seen-mask over every B-spline
+  // ever created would cost O(created) per call, which dominated element_basis on deep cubic
+  // trees.
   std::vector<int> out;
-  for (int leaf : leaves)
-    for (int b : leaf_bsplines_[static_cast<std::size_t>(leaf)])
-      if (!seen[static_cast<std::size_t>(b)]) {
-        seen[static_cast<std::size_t>(b)] = 1;
-        out.push_back(b);
-      }
+  for (int leaf : leaves) {
+    const auto& list = leaf_bsplines_[static_cast<std::size_t>(leaf)];
+    out.insert(out.end(), list.begin(), list.end());
+  }
   std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 
@@ -153,14 +154,19 @@ bool Basis::sample_is_local(int k, const std::vector<int>& support_leaves,
       if (!box_contains(tree_.node(n).box, x, K)) return false;
     return true;
   }
-  // Cubic: k in Bbar(n) iff a leaf holding x_k touches n.
-  auto it = holders.find(k);
-  if (it == holders.end()) {
-    it = holders.emplace(k, std::vector<int>()).first;
-    tree_.leaves_containing(x, it->second);
-  }
+  // Cubic: k in Bbar(n) iff a leaf holding x_k touches n; n itself holds x_k in the common case,
+  // which needs no search among the (up to 2^K) holders.
+  auto it = holders.end();
   for (int n : support_leaves) {
     const IBox& nb = tree_.node(n).box;
+    if (box_contains(nb, x, K)) continue;
+    if (it == holders.end()) {
+      it = holders.find(k);
+      if (it == holders.end()) {
+        it = holders.emplace(k, std::vector<int>()).first;
+        tree_.leaves_containing(x, it->second);
+      }
+    }
     bool near = false;
     for (int m : it->second)
       if (boxes_touch(tree_.node(m).box, nb, K)) {

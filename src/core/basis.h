@@ -84,11 +84,19 @@ class Basis {
   }
   int bspline_count() const { return live_bsplines_; }
 
+  /// Refinement finds the B-splines over an element through the per-leaf index (the live
+  /// B-splines overlapping each leaf). With `on`, it scans every B-spline near the refined
+  /// element instead, as the unindexed algorithm did: slower, the same basis; tests compare the
+  /// two.
+  void set_reference_search(bool on) { reference_search_ = on; }
+
  private:
   struct Bspline {
     BsplineKey key;
+    IBox support;                     // support_box(key): tested against leaves at every step
     std::vector<Coefficient> coeffs;  // increasing sample id
     bool alive = true;
+    int changed_in = 0;  // the refine() call that last set coeffs (0: the constructor)
   };
 
   int add_sample(const IPoint& p);
@@ -105,11 +113,12 @@ class Basis {
 
   // Algorithm 1 steps (refine.cpp).
   std::vector<int> add_split_samples(const IBox& parent, int dir, Coord mid);
-  void uniformize(const IBox& box, int dir, int min_level, std::vector<int>& near);
+  void uniformize(const IBox& box, const std::vector<int>& box_leaves, int dir, int min_level,
+                  std::vector<int>& near);
   void index_bspline(int b, bool add);
   void refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& target,
                        const std::vector<int>& candidates);
-  void enforce_locality(const std::vector<int>& candidates);
+  void enforce_locality(const std::vector<int>& candidates, const std::vector<int>& shrunk);
   std::vector<Coefficient> reallocate(const Bspline& b) const;
 
   Degree degree_;
@@ -121,6 +130,8 @@ class Basis {
   std::vector<Bspline> bsplines_;
   std::unordered_map<BsplineKey, int, BsplineKeyHash> bspline_id_;
   int live_bsplines_ = 0;
+  bool reference_search_ = false;
+  int refines_ = 0;  // refine() calls so far
 };
 
 /// Grid units within which y of Eq. 10 is snapped to the integer grid (see the file comment).

@@ -434,5 +434,39 @@ TEST(CubicBoundary, PartitionOfUnityAndLinearPrecisionOnTheBoundary) {
   }
 }
 
+// The per-leaf index finds the B-splines over a refined element (Basis::set_reference_search);
+// scanning every B-spline near it is the unindexed algorithm. Both must build the same basis,
+// bit for bit: same samples, same B-splines in the same order, same coefficients.
+TEST(IndexedRefinement, SameBasisAsTheReferenceScan) {
+  for (int K = 1; K <= 4; ++K)
+    for (Degree g : {Degree::Linear, Degree::Cubic})
+      for (int seed = 0; seed < 2; ++seed) {
+        SCOPED_TRACE("K=" + std::to_string(K) + " cubic=" + std::to_string(g == Degree::Cubic) +
+                     " seed=" + std::to_string(seed));
+        Basis indexed(K, g), reference(K, g);
+        reference.set_reference_search(true);
+        std::mt19937_64 rng_a(1000 + 10 * K + seed), rng_b(1000 + 10 * K + seed);
+        random_splits(indexed, rng_a, 6 * K, 5);
+        random_splits(reference, rng_b, 6 * K, 5);
+        ASSERT_EQ(indexed.tree().node_count(), reference.tree().node_count());
+        ASSERT_EQ(indexed.sample_count(), reference.sample_count());
+        for (int k = 0; k < indexed.sample_count(); ++k)
+          ASSERT_EQ(indexed.sample(k), reference.sample(k));
+        std::vector<std::pair<BsplineKey, std::vector<Coefficient>>> a, b;
+        indexed.for_each_bspline([&](const BsplineKey& key, const std::vector<Coefficient>& c) {
+          a.emplace_back(key, c);
+        });
+        reference.for_each_bspline([&](const BsplineKey& key, const std::vector<Coefficient>& c) {
+          b.emplace_back(key, c);
+        });
+        ASSERT_EQ(a.size(), b.size());
+        EXPECT_GT(a.size(), std::size_t(1) << K);  // the splits refined the level-0 basis
+        for (std::size_t i = 0; i < a.size(); ++i) {
+          ASSERT_TRUE(a[i].first == b[i].first) << "B-spline " << i;
+          ASSERT_EQ(a[i].second, b[i].second) << "B-spline " << i;  // exact doubles
+        }
+      }
+}
+
 }  // namespace
 }  // namespace cadinterp::core

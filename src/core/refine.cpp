@@ -35,6 +35,7 @@ void axpy(std::vector<Coefficient>& dst, double w, const std::vector<Coefficient
 std::vector<int> Basis::refine(int leaf, int dir) {
   const KdTree::Node parent = tree_.node(leaf);
   const auto kids = tree_.split(leaf, dir);  // validates leaf, dir and level
+  ++refines_;
   const Coord mid = tree_.node(kids[1]).box.lo[dir];
   const int K = dim();
 
@@ -49,7 +50,7 @@ std::vector<int> Basis::refine(int leaf, int dir) {
       if (box_contains(kb, sample(k), K)) mine.push_back(k);
     auto& overlapping = leaf_bsplines_[static_cast<std::size_t>(kid)];
     for (int b : leaf_bsplines_[static_cast<std::size_t>(leaf)])
-      if (boxes_overlap(support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, K), kb, K))
+      if (boxes_overlap(bsplines_[static_cast<std::size_t>(b)].support, kb, K))
         overlapping.push_back(b);
   }
   std::vector<int>().swap(leaf_samples_[static_cast<std::size_t>(leaf)]);
@@ -74,16 +75,16 @@ std::vector<int> Basis::refine(int leaf, int dir) {
   // Cubic: Bbar of each leaf touching the element can lose samples, so B-splines overlapping
   // those leaves may break locality too; they are brought to one level per leaf likewise.
   std::vector<int> near_bsplines = bsplines_overlapping(touching);
-  uniformize(parent.box, dir, parent.level[dir] + 1, near_bsplines);
+  uniformize(parent.box, {kids[0], kids[1]}, dir, parent.level[dir] + 1, near_bsplines);
   if (degree_ == Degree::Cubic)
     for (int n : touching)
-      if (n != kids[0] && n != kids[1]) uniformize(tree_.node(n).box, -1, 0, near_bsplines);
+      if (n != kids[0] && n != kids[1]) uniformize(tree_.node(n).box, {n}, -1, 0, near_bsplines);
 
   // Step 3 (combination, Eq. 10).
   std::vector<int> candidates;
   for (int b : near_bsplines) {
     if (!bsplines_[static_cast<std::size_t>(b)].alive) continue;
-    const IBox sup = support_box(bsplines_[static_cast<std::size_t>(b)].key, degree_, K);
+    const IBox& sup = bsplines_[static_cast<std::size_t>(b)].support;
     const bool hits = degree_ == Degree::Linear
                           ? boxes_overlap(sup, parent.box, K)
                           : std::any_of(touching.begin(), touching.end(), [&](int n) {
@@ -91,22 +92,44 @@ std::vector<int> Basis::refine(int leaf, int dir) {
                             });
     if (hits) candidates.push_back(b);
   }
-  enforce_locality(candidates);
+  // The leaves whose neighbourhood (B(e) linear, Bbar(e) cubic) can have lost samples: the
+  // children, and for cubic the leaves touching only one of them (a leaf touching both still
+  // sees every sample of the parent).
+  std::vector<int> shrunk{kids[0], kids[1]};
+  if (degree_ == Degree::Cubic)
+    for (int n : touching) {
+      const IBox& nb = tree_.node(n).box;
+      if (n != kids[0] && n != kids[1] &&
+          !(boxes_touch(nb, tree_.node(kids[0]).box, K) &&
+            boxes_touch(nb, tree_.node(kids[1]).box, K)))
+        shrunk.push_back(n);
+    }
+  enforce_locality(candidates, shrunk);
   return added;
 }
 
-void Basis::uniformize(const IBox& box, int dir, int min_level, std::vector<int>& near) {
+void Basis::uniformize(const IBox& box, const std::vector<int>& box_leaves, int dir, int min_level,
+                       std::vector<int>& near) {
   // `near` holds every B-spline that can overlap `box` (increasing ids); B-splines created here
   // have the largest ids and are appended, so it stays complete and sorted for the next call.
+  // The live B-splines overlapping `box` are those the index lists on the leaves tiling it
+  // (`box_leaves`), in the same increasing order as the scan of `near` finds them: a touching
+  // leaf sees a handful of the B-splines near a split, and scanning all of them for every
+  // touching leaf grew with the square of the neighbourhood (cubic, §5.3).
   const int K = dim();
   std::array<int, kMaxDim> target{};
   std::vector<int> over;
-  for (int b : near) {
-    const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
-    if (!bs.alive || !boxes_overlap(support_box(bs.key, degree_, K), box, K)) continue;
-    over.push_back(b);
-    for (int d = 0; d < K; ++d) target[d] = std::max(target[d], int(bs.key.level[d]));
+  if (reference_search_) {
+    for (int b : near) {
+      const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
+      if (bs.alive && boxes_overlap(bs.support, box, K)) over.push_back(b);
+    }
+  } else {
+    over = bsplines_overlapping(box_leaves);
   }
+  for (int b : over)
+    for (int d = 0; d < K; ++d)
+      target[d] = std::max(target[d], int(bsplines_[static_cast<std::size_t>(b)].key.level[d]));
   if (dir >= 0) target[dir] = std::max(target[dir], min_level);
   const int first_new = static_cast<int>(bsplines_.size());
   refine_bsplines(box, target, over);
@@ -158,7 +181,7 @@ void Basis::refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& 
   // The first direction in which B-spline b overlapping the parent is coarser than the target.
   auto coarse_dir = [&](int b) {
     const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
-    if (!bs.alive || !boxes_overlap(support_box(bs.key, degree_, K), parent, K)) return -1;
+    if (!bs.alive || !boxes_overlap(bs.support, parent, K)) return -1;
     for (int d = 0; d < K; ++d)
       if (bs.key.level[d] < target[d]) return d;
     return -1;
@@ -186,19 +209,33 @@ void Basis::refine_bsplines(const IBox& parent, const std::array<int, kMaxDim>& 
   }
 }
 
-void Basis::enforce_locality(const std::vector<int>& candidates) {
+void Basis::enforce_locality(const std::vector<int>& candidates, const std::vector<int>& shrunk) {
+  // Every B-spline was local before this refinement. One whose coefficients step 2 left alone
+  // can only lose locality on the leaves whose neighbourhood lost samples (`shrunk`): the other
+  // leaves' neighbourhoods are unchanged or gained samples. So only those leaves are tested for
+  // it, which spares most (coefficient, leaf) tests on deep cubic trees; B-splines step 2
+  // created or changed are tested on their whole support.
   std::vector<int> support_leaves;
   HolderCache holders;
+  const int K = dim();
   for (int b : candidates) {
     const Bspline& bs = bsplines_[static_cast<std::size_t>(b)];
     if (!bs.alive) continue;
     support_leaves.clear();
-    tree_.leaves_overlapping(support_box(bs.key, degree_, dim()), support_leaves);
+    if (bs.changed_in == refines_ || reference_search_) {
+      tree_.leaves_overlapping(bs.support, support_leaves);
+    } else {
+      for (int n : shrunk)
+        if (boxes_overlap(bs.support, tree_.node(n).box, K)) support_leaves.push_back(n);
+      if (support_leaves.empty()) continue;
+    }
     const bool local = std::all_of(bs.coeffs.begin(), bs.coeffs.end(), [&](const Coefficient& c) {
       return sample_is_local(c.first, support_leaves, holders);
     });
     if (local) continue;
     std::vector<Coefficient> moved = reallocate(bs);
+    support_leaves.clear();  // the target must be local on the whole support
+    tree_.leaves_overlapping(bs.support, support_leaves);
     for (const auto& [k, a] : moved)
       if (!sample_is_local(k, support_leaves, holders)) {
         throw std::logic_error("Basis::refine: reallocation target is not a local sample");

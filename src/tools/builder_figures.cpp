@@ -1,7 +1,8 @@
 // The builder's figures for the closing notes (paper §7, Tables 1-2, ours) on the analytic
 // models: samples and time per model, accuracy at random points, adaptive against uniform
-// sample counts at equal error, and the speedup from 1 to 2 threads.
-//   cadinterp-builder-figures [--points N] [--cells N]
+// sample counts at equal error, and the speedup from 1 to 2 threads. With --calls, only the
+// host's cost (§4.2): host calls against kept samples and the measured error, per model.
+//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -35,32 +36,70 @@ Run build(const cadinterp_host* host, const cadinterp_build_options& o, const st
   return r;
 }
 
+// The analytic host `model`, or null after printing why.
+const cadinterp_host* analytic_host(const char* model, const std::string& options) {
+  const char* err = nullptr;
+  const cadinterp_host* host = cadinterp_host_entry(model, options.c_str(), &err);
+  if (!host) std::fprintf(stderr, "%s: %s\n", model, err ? err : "?");
+  return host;
+}
+
+// The builder's defaults with the figures' budget of 400 samples.
+cadinterp_build_options figure_options() {
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 400;
+  return o;
+}
+
+// Host calls per kept sample and the error measured against the host (not the driver's own
+// estimate), one build per model at the figures' defaults.
+int host_calls_table(const std::string& bracket_options, int points, const std::string& path) {
+  std::printf("model      samples  host calls  calls/sample  geometry max  field max  wall s\n");
+  for (const char* model : {"bracket", "plate", "foldplate"}) {
+    const std::string opts = !std::strcmp(model, "bracket")     ? bracket_options
+                             : !std::strcmp(model, "foldplate") ? "edge=10"
+                                                                : "";
+    const cadinterp_host* host = analytic_host(model, opts);
+    if (!host) return 1;
+    const mesh::Host h(*host);
+    cadinterp_build_options o = figure_options();
+    o.threads = 1;
+    const Run r = build(host, o, path);
+    const builder::AccuracyReport a = builder::measure_accuracy(path, h, points, 7);
+    std::printf("%-10s %7d  %10d  %12.2f  %12.2e  %9.2e  %6.2f\n", model, r.report.samples,
+                r.report.host_evaluations,
+                static_cast<double>(r.report.host_evaluations) / std::max(1, r.report.samples),
+                a.geometry_max, a.field_max, r.seconds);
+  }
+  std::filesystem::remove(path);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int points = 200;
+  bool calls = false;
   std::string options = "cells=6";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--points"))
-      points = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--host-options"))
-      options = argv[i + 1];
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--calls"))
+      calls = true;
+    else if (!std::strcmp(argv[i], "--points") && i + 1 < argc)
+      points = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--host-options") && i + 1 < argc)
+      options = argv[++i];
   }
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
+  if (calls) return host_calls_table(options, points, path);
   for (const char* model : {"bracket", "plate"}) {
-    const char* err = nullptr;
     const cadinterp_host* host =
-        cadinterp_host_entry(model, std::strcmp(model, "bracket") ? "" : options.c_str(), &err);
-    if (!host) {
-      std::fprintf(stderr, "%s: %s\n", model, err ? err : "?");
-      return 1;
-    }
+        analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());
+    if (!host) return 1;
     const mesh::Host h(*host);
-    cadinterp_build_options o;
-    cadinterp_build_options_init(&o);
-    o.max_samples = 400;
-    std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    cadinterp_build_options o = figure_options();
     std::printf("== %s (%s), K=%d\n", model, h.identity().c_str(), h.dim());
     Run one, two;
     for (int threads : {1, 2}) {
