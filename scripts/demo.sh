@@ -15,9 +15,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 explorer=examples/explorer
+# npm ci installs exactly the lock file and never rewrites it (npm install did, leaving the git
+# tree dirty); node_modules/.package-lock.json is npm's record of the last install.
 if [ ! -f $explorer/node_modules/.package-lock.json ] ||
    [ $explorer/package-lock.json -nt $explorer/node_modules/.package-lock.json ]; then
-  (cd $explorer && npm install --no-audit --no-fund)
+  (cd $explorer && npm ci --no-audit --no-fund)
 fi
 scripts/build-wasm.sh >/dev/null
 cmake --preset release >/dev/null
