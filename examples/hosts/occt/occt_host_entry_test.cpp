@@ -143,7 +143,7 @@ void expect_matches_host(cadinterp_asset* asset, const cadinterp::occt::Model& t
 // mapping; then the asset against the host at a point between samples.
 TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
   const std::string asset_path = temp_path("occt_wrench", ".cadi");
-  const std::string options = "mesh_size=10,vary=load_angle";
+  const std::string options = "mesh_size=10,order=1,vary=load_angle";
   std::string out;
   cadinterp_asset* asset =
       cli_build(options, "--max-samples 5 --max-depth 2 --field-tol 0.02", asset_path, &out);
@@ -165,7 +165,7 @@ TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
 // against the host at random points between its samples.
 TEST(OcctEntry, CliBuildsTheWrenchCubic) {
   const std::string asset_path = temp_path("occt_wrench_cubic", ".cadi");
-  const std::string options = "mesh_size=10,vary=load_angle";
+  const std::string options = "mesh_size=10,order=1,vary=load_angle";
   std::string out;
   cadinterp_asset* asset = cli_build(
       options, "--degree 3 --max-samples 12 --max-depth 2 --field-tol 0.02", asset_path, &out);
