@@ -115,6 +115,14 @@ LinearSolveResult solve_two_level(const SparseMatrix& K, const Eigen::VectorXd& 
 
 /// solve() with the linear solver forced to `*forced` (nullptr: as solve() picks), for the
 /// benchmark.
+/// The stresses at the vertices (#V by 6) from each tet's stress at its four corners
+/// (`corner`: #T by 4 by 6, the element's field is linear between them) and the tet volumes, by
+/// `recovery` (physics_recovery.cpp). Throws Error if the projection's CG does not converge.
+std::vector<double> recover_vertex_stress(const Discretization& d,
+                                          const std::vector<double>& corner,
+                                          const std::vector<double>& volume,
+                                          StressRecovery recovery);
+
 Solution solve_with(const Problem& problem, const SolverKind* forced);
 
 }  // namespace cadinterp::physics::detail

@@ -335,27 +335,28 @@ void fixed_components(const Problem& p, const Discretization& d, std::vector<std
 }
 
 // Stress at the vertices: each tet's mechanical stress at its corners (constant for order 1,
-// linear for order 2), averaged with volume weights; the thermal part -beta alpha dT I is
-// added at the vertex from the vertex temperature, which is exact there. Sets out.stress and
-// out.von_mises.
+// linear for order 2) taken to the vertices by the problem's recovery (recover_vertex_stress);
+// the thermal part -beta alpha dT I is added at the vertex from the vertex temperature, which is
+// exact there. Sets out.stress and out.von_mises.
 void vertex_stress(const Discretization& d, const Elastic& lame, const Eigen::VectorXd& u,
-                   const Eigen::VectorXd* temperature, double reference_temperature,
-                   Solution& out) {
+                   const Eigen::VectorXd* temperature, const Problem& p, Solution& out) {
   const double lambda = lame.lambda, mu = lame.mu, beta_alpha = lame.beta_alpha;
   const int n = d.nodes_per_element;
   double N[10], dN[10][3];
-  const std::size_t nv = d.vertex_count;
-  std::vector<double> sum(6 * nv, 0.0), weight(nv, 0.0);
+  const std::size_t nv = d.vertex_count, nt = d.element_count();
+  std::vector<double> corner(24 * nt), volume(nt);
   static constexpr double kCorner[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
-  for (std::size_t e = 0; e < d.element_count(); ++e) {
+  for (std::size_t e = 0; e < nt; ++e) {
     const std::uint32_t* el = &d.elements[e * n];
     const TetGeometry g = tet_geometry(d.nodes, el);
+    volume[e] = g.volume;
     for (int c = 0; c < 4; ++c) {
       if (n == 4 && c > 0) {
         // Order 1: the strain is constant, reuse corner 0's.
-      } else {
-        shape(n, kCorner[c], g, N, dN);
+        std::copy_n(&corner[24 * e], 6, &corner[24 * e + 6 * c]);
+        continue;
       }
+      shape(n, kCorner[c], g, N, dN);
       Eigen::Matrix3d grad = Eigen::Matrix3d::Zero();  // du_i / dx_j
       for (int a = 0; a < n; ++a) {
         for (int i = 0; i < 3; ++i) {
@@ -365,25 +366,20 @@ void vertex_stress(const Discretization& d, const Elastic& lame, const Eigen::Ve
       const Eigen::Matrix3d eps = 0.5 * (grad + grad.transpose());
       const Eigen::Matrix3d sigma =
           lambda * eps.trace() * Eigen::Matrix3d::Identity() + 2 * mu * eps;
-      const std::uint32_t v = el[c];
-      const double w = g.volume;
       const double comps[6] = {sigma(0, 0), sigma(1, 1), sigma(2, 2),
                                sigma(1, 2), sigma(0, 2), sigma(0, 1)};
-      for (int k = 0; k < 6; ++k) sum[6 * v + k] += w * comps[k];
-      weight[v] += w;
+      std::copy_n(comps, 6, &corner[24 * e + 6 * c]);
     }
   }
-  out.stress.resize(6 * nv);
+  out.stress = recover_vertex_stress(d, corner, volume, p.recovery);
   out.von_mises.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
-    double s[6];
-    for (int k = 0; k < 6; ++k) s[k] = sum[6 * v + k] / weight[v];
+    double* s = &out.stress[6 * v];
     if (temperature != nullptr) {
-      const double thermal =
-          beta_alpha * ((*temperature)[static_cast<Eigen::Index>(v)] - reference_temperature);
+      const double thermal = beta_alpha * ((*temperature)[static_cast<Eigen::Index>(v)] -
+                                           p.material.reference_temperature);
       for (int k = 0; k < 3; ++k) s[k] -= thermal;
     }
-    std::copy(s, s + 6, &out.stress[6 * v]);
     out.von_mises[v] =
         std::sqrt(0.5 * ((s[0] - s[1]) * (s[0] - s[1]) + (s[1] - s[2]) * (s[1] - s[2]) +
                          (s[2] - s[0]) * (s[2] - s[0])) +
@@ -421,7 +417,7 @@ Eigen::VectorXd solve_elastic(const Problem& p, const Discretization& d, const N
     out.reactions[3 * static_cast<std::size_t>(owner[dof]) + dof % 3] +=
         residual[static_cast<Eigen::Index>(k)];
   }
-  vertex_stress(d, lame, u, temperature, p.material.reference_temperature, out);
+  vertex_stress(d, lame, u, temperature, p, out);
   out.assemble_seconds += seconds_since(t0);
   return u;
 }

@@ -3,7 +3,9 @@
 // thermoelastic bars, patch tests, equilibrium of reactions, and the named input errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
@@ -101,6 +103,44 @@ TEST(PhysicsCantilever, TipDeflectionConvergesToTimoshenkoOrder2FarBetterThanOrd
   EXPECT_LT(e2[1], e1[1] / 20);
 }
 
+/// Worst relative error of sigma_xx on the top and bottom faces (z = 0, 1) over x in [3, 7]
+/// against Saint-Venant's M z / I (exact for the end-loaded beam away from both ends).
+double bending_stress_error(const Problem& p, const Solution& s) {
+  double worst = 0;
+  for (std::size_t v = 0; v < vertex_count(p.mesh); ++v) {
+    const double x = p.mesh.vertices[3 * v], z = p.mesh.vertices[3 * v + 2];
+    if (x < 3 - 1e-9 || x > 7 + 1e-9 || (std::abs(z) > 1e-9 && std::abs(z - 1) > 1e-9)) continue;
+    const double want = kBeamP * (kBeamL - x) * (z - 0.5) / (1.0 / 12);
+    worst = std::max(worst, std::abs(s.stress[6 * v] - want) / std::abs(want));
+  }
+  return worst;
+}
+
+TEST(PhysicsCantilever, ProjectedBendingStressConvergesAtOrderTwoOnQuadraticTets) {
+  // The L2 projection (the default recovery) keeps P2's O(h^2) stress up to the surface, where
+  // bending stress peaks (order 2.00 from h = 1/2 to 1/4 and on to 1/8); the volume-weighted
+  // average of the tets' corner values converges at order 2 there too, with a 25 % larger
+  // error. h = 1, 1/2, 1/4 through the 1 x 1 section.
+  double projected[3], averaged[3];
+  for (int i = 0; i < 3; ++i) {
+    Problem p = cantilever(1 << i, 2);
+    projected[i] = bending_stress_error(p, solve(p));
+    p.recovery = StressRecovery::volume_average;
+    averaged[i] = bending_stress_error(p, solve(p));
+  }
+  const double rate = std::log(projected[1] / projected[2]) / std::log(2.0);
+  const double rate_averaged = std::log(averaged[1] / averaged[2]) / std::log(2.0);
+  std::printf(
+      "bending stress error P2, projected: %.2e %.2e %.2e (order %.2f); averaged: %.2e "
+      "%.2e %.2e (order %.2f)\n",
+      projected[0], projected[1], projected[2], rate, averaged[0], averaged[1], averaged[2],
+      rate_averaged);
+  EXPECT_GT(rate, 1.7);
+  EXPECT_LT(rate, 3.5);
+  EXPECT_LT(projected[2], averaged[2]);
+  EXPECT_LT(projected[2], 0.005);
+}
+
 TEST(PhysicsCantilever, ReactionsBalanceTheLoadAndSolversAgree) {
   for (int order : {1, 2}) {
     Problem p = cantilever(order == 1 ? 2 : 1, order);  // 567 unknowns each: fast under ASan
@@ -186,12 +226,12 @@ TEST(PhysicsLame, RadialDisplacementAndHoopStressMatchLame) {
   {
     const Problem p = lame_problem(4, 1);
     const LameErrors e = lame_errors(p, solve(p));
-    // Order 1 (h = 1/8): nodal displacement to 3%; vertex-averaged constant stresses lag at the
-    // surface by O(h): 12%.
+    // Order 1 (h = 1/8): nodal displacement to 3%; the projected constant stresses lag at the
+    // surface by O(h): 14%.
     EXPECT_LT(e.u_inner, 0.03);
     EXPECT_LT(e.u_outer, 0.03);
-    EXPECT_LT(e.hoop_inner, 0.12);
-    EXPECT_LT(e.hoop_outer, 0.12);
+    EXPECT_LT(e.hoop_inner, 0.15);
+    EXPECT_LT(e.hoop_outer, 0.15);
   }
   {
     const Problem p = lame_problem(4, 2);

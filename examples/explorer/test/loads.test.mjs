@@ -50,7 +50,7 @@ describe('explorer on the OCCT wrench with a varying load angle (arrows follow t
     asset = join(WORK, 'wrench_load_angle.cadi');
     if (!existsSync(asset)) {
       // Coarse mesh, one parameter, a handful of samples: a few seconds on 2 cores.
-      cli(['build', '--host', OCCT_HOST, '--model', 'wrench', '--host-options', 'mesh_size=8,vary=load_angle',
+      cli(['build', '--host', OCCT_HOST, '--model', 'wrench', '--host-options', 'mesh_size=8,order=1,vary=load_angle',
         '--max-samples', '5', '--threads', '2', '-q', '-o', asset]);
     }
     explorer = await openExplorer(asset);

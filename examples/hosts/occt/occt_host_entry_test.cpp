@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <string>
 
@@ -83,33 +84,30 @@ TEST(OcctEntry, LoadsFromTheSharedLibrary) {
   dlclose(lib);
 }
 
-// `cadinterp build` through the shared library on the wrench's load angle alone (the other
-// parameters held at the centre), so every sample has one mesh and the build needs no mesh
-// mapping; then the asset against the host at a point between samples.
-TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
-  const std::string asset_path = temp_path("occt_wrench", ".cadi");
-  const std::string log = temp_path("occt_wrench", ".log");
-  const std::string options = "mesh_size=10,vary=load_angle";
+// `cadinterp build` through the shared library, the asset opened; fails the test on error.
+cadinterp_asset* cli_build(const std::string& options, const std::string& extra,
+                           const std::string& asset_path, std::string* output) {
+  const std::string log = asset_path + ".log";
   const std::string cmd = std::string(OCCT_CLI) + " build --host " + OCCT_HOST_SO +
-                          " --model wrench --host-options " + options +
-                          " --max-samples 5 --max-depth 2 --field-tol 0.02 -j 2 -q -o " +
-                          asset_path + " > " + log + " 2>&1";
+                          " --model wrench --host-options " + options + " " + extra +
+                          " -j 2 -q -o " + asset_path + " > " + log + " 2>&1";
   const int rc = std::system(cmd.c_str());
   std::ifstream in(log);
   std::stringstream out;
   out << in.rdbuf();
-  ASSERT_EQ(rc, 0) << cmd << "\n" << out.str();
-  EXPECT_NE(out.str().find("build summary"), std::string::npos) << out.str();
-  // Two threads regenerate at once (-j 2): every point must still regenerate (the modelling
-  // stage is serialized, occt_host.cpp).
-  EXPECT_NE(out.str().find("infeasible 0)"), std::string::npos) << out.str();
-
+  *output = out.str();
+  std::remove(log.c_str());
+  EXPECT_EQ(rc, 0) << cmd << "\n" << out.str();
   cadinterp_asset* asset = nullptr;
-  ASSERT_EQ(cadinterp_open(asset_path.c_str(), &asset), CADINTERP_OK) << cadinterp_open_error();
-  EXPECT_EQ(cadinterp_parameter_count(asset), 1);
-  EXPECT_EQ(cadinterp_region_count(asset), 2);
-  cadinterp::occt::Model truth("wrench", options);
-  const double x[] = {12.5};
+  EXPECT_EQ(cadinterp_open(asset_path.c_str(), &asset), CADINTERP_OK) << cadinterp_open_error();
+  return asset;
+}
+
+// The asset against the host's own regeneration at x: the geometry (the load angle does not
+// change it, so the host's mesh vertex for vertex) and, with the FEM, the displacement within
+// `tolerance` of its range.
+void expect_matches_host(cadinterp_asset* asset, const cadinterp::occt::Model& truth,
+                         const double* x, double tolerance) {
   const cadinterp::occt::Evaluation e = truth.evaluate(x);
   ASSERT_TRUE(e.ok) << e.message;
   cadinterp_workspace* ws = nullptr;
@@ -124,12 +122,10 @@ TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
   cadinterp_mesh m{};
   ASSERT_EQ(cadinterp_eval(ws, x, fields, physics ? 2 : 0, &m), CADINTERP_OK)
       << cadinterp_workspace_error(ws);
-  // The geometry does not depend on the load angle: the host's mesh, vertex for vertex.
   ASSERT_EQ(m.vertex_count, e.vertices.size() / 3);
   for (std::size_t i = 0; i < e.vertices.size(); ++i)
     ASSERT_NEAR(m.positions[i], e.vertices[i], 1e-4 * (1 + std::abs(e.vertices[i])));
   if (physics) {
-    // The fields between samples: within the build's tolerance of the true FEM solution.
     const cadinterp::occt::Fields f = truth.simulate(x, e);
     double lo = 1e300, hi = -1e300, err = 0;
     for (std::size_t i = 0; i < f.displacement.size(); ++i) {
@@ -137,12 +133,53 @@ TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
       hi = std::max(hi, f.displacement[i]);
       err = std::max(err, std::abs(m.fields[1][i] - f.displacement[i]));
     }
-    EXPECT_LT(err / (hi - lo), 0.05);
+    EXPECT_LT(err / (hi - lo), tolerance) << "x = " << x[0];
   }
   cadinterp_workspace_destroy(ws);
+}
+
+// `cadinterp build` through the shared library on the wrench's load angle alone (the other
+// parameters held at the centre), so every sample has one mesh and the build needs no mesh
+// mapping; then the asset against the host at a point between samples.
+TEST(OcctEntry, CliBuildsTheWrenchThroughTheSharedLibrary) {
+  const std::string asset_path = temp_path("occt_wrench", ".cadi");
+  const std::string options = "mesh_size=10,order=1,vary=load_angle";
+  std::string out;
+  cadinterp_asset* asset =
+      cli_build(options, "--max-samples 5 --max-depth 2 --field-tol 0.02", asset_path, &out);
+  ASSERT_NE(asset, nullptr);
+  EXPECT_NE(out.find("build summary"), std::string::npos) << out;
+  // Two threads regenerate at once (-j 2): every point must still regenerate (the modelling
+  // stage is serialized, occt_host.cpp).
+  EXPECT_NE(out.find("infeasible 0)"), std::string::npos) << out;
+  EXPECT_EQ(cadinterp_parameter_count(asset), 1);
+  EXPECT_EQ(cadinterp_region_count(asset), 2);
+  const cadinterp::occt::Model truth("wrench", options);
+  const double x[] = {12.5};
+  expect_matches_host(asset, truth, x, 0.05);
   cadinterp_close(asset);
   std::remove(asset_path.c_str());
-  std::remove(log.c_str());
+}
+
+// The same model cubic (--degree 3, C2 Hermite-type basis): built end to end and checked
+// against the host at random points between its samples.
+TEST(OcctEntry, CliBuildsTheWrenchCubic) {
+  const std::string asset_path = temp_path("occt_wrench_cubic", ".cadi");
+  const std::string options = "mesh_size=10,order=1,vary=load_angle";
+  std::string out;
+  cadinterp_asset* asset = cli_build(
+      options, "--degree 3 --max-samples 12 --max-depth 2 --field-tol 0.02", asset_path, &out);
+  ASSERT_NE(asset, nullptr);
+  EXPECT_NE(out.find("infeasible 0)"), std::string::npos) << out;
+  const cadinterp::occt::Model truth("wrench", options);
+  std::mt19937 rng(::testing::UnitTest::GetInstance()->random_seed());
+  std::uniform_real_distribution<double> angle(-30, 30);
+  for (int i = 0; i < 3; ++i) {
+    const double x[] = {angle(rng)};
+    expect_matches_host(asset, truth, x, 0.02);
+  }
+  cadinterp_close(asset);
+  std::remove(asset_path.c_str());
 }
 
 }  // namespace
