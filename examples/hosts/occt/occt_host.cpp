@@ -190,8 +190,9 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
                (m.def->name == "hub" ? ", heat_flux=" + g(m.settings.heat_flux) : "") +
                (names.empty() ? std::string() : ", vary=" + vary) + ")" +
                // The fields' definition: v3 recovers the vertex stresses by L2 projection
-               // (examples/physics); stores of other definitions are refused.
-               " fields v3 (stress=l2-projection)";
+               // (examples/physics); outputs v1 are brep_volume and max_von_mises. Stores of
+               // other definitions are refused.
+               " fields v3 (stress=l2-projection), outputs v1";
   for (std::size_t i : m.varied) {
     const ParameterDef& p = m.def->parameters[i];
     m.params.push_back({p.name.c_str(), p.unit.c_str(), p.lower, p.upper});
