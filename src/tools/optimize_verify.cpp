@@ -38,6 +38,9 @@ std::vector<std::uint8_t> sample_asset_bytes(const mesh::Sample& s) {
     c.fields.emplace_back(f.name, static_cast<format::FieldLocation>(f.location), f.components,
                           f.unit);
   for (const mesh::Region& r : s.regions) c.regions.push_back({r.name, r.kind, r.face_tags});
+  // The host's own scalar outputs, equal at both samples of the one element, so that an
+  // expression naming output(NAME) reads the host's exact value at x*.
+  for (const mesh::Output& o : s.outputs) c.outputs.push_back({o.name, o.unit, {o.value, o.value}});
   c.builder_version = "host sample";
   c.host = "host sample";
   c.options_json = "{}";

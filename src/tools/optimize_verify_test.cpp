@@ -72,6 +72,22 @@ TEST(OptimizeVerify, WhatTheSampleLacksIsNotAvailableWithTheReason) {
   EXPECT_NE(v[2].reason.find("clamp"), std::string::npos) << v[2].reason;
 }
 
+TEST(OptimizeVerify, TheHostsOutputsAreItsExactValues) {
+  mesh::Sample s = box_sample();
+  s.outputs.push_back({"brep_volume", 0.123456789, "mm^3"});
+  OptimizeSpec spec;
+  spec.minimize = "output(brep_volume)";
+  spec.subject_to = {"2*output(brep_volume) - volume <= 1", "output(compliance) <= 1"};
+  const std::vector<TrueValue> v = values_on_sample(s, spec);
+  ASSERT_EQ(v.size(), 3u);
+  ASSERT_TRUE(v[0].defined) << v[0].reason;
+  EXPECT_NEAR(v[0].value, 0.123456789, 1e-15);
+  ASSERT_TRUE(v[1].defined) << v[1].reason;
+  EXPECT_NEAR(v[1].value, 2 * 0.123456789 - 0.125, 1e-9);
+  EXPECT_FALSE(v[2].defined);  // the host returned no such output
+  EXPECT_NE(v[2].reason.find("compliance"), std::string::npos) << v[2].reason;
+}
+
 TEST(OptimizeVerify, AnInfeasibleSampleMakesNoAsset) {
   mesh::Sample s;
   s.message = "the host failed";
