@@ -50,6 +50,10 @@ step "release: benchmark smoke runs (measure nothing, prove the benchmarks run)"
 step "release: optimize_bench smoke run (mesh quantities vs per-sample outputs; a 2x2x2 box)"
 ./build/release/src/optimize/optimize_bench --cubes=2 --benchmark_min_time=0.001 >/dev/null
 
+step "release: builder benchmark smoke run (one 2-thread build of the refined bracket)"
+./build/release/src/builder/builder_bench --benchmark_filter='BM_Build/refined:1/threads:2' \
+  >/dev/null
+
 step "install: consumers of a staged install (CMake package, pkg-config, static link)"
 BUILD_DIR=build/release scripts/test-install.sh
 

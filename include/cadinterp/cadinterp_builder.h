@@ -293,9 +293,12 @@ typedef struct cadinterp_build_options {
    * to it too, relative to their magnitude (the largest |value| among the true and the
    * element's samples). */
   double field_tolerance;
-  int max_samples;        /**< no refinement starts beyond this many samples (default 256; >= 2) */
-  int max_depth;          /**< splits per direction (default 8; 1..29) */
-  int threads;            /**< host evaluations in parallel; 0: hardware concurrency (default 0) */
+  int max_samples; /**< no refinement starts beyond this many samples (default 256; >= 2) */
+  int max_depth;   /**< splits per direction (default 8; 1..29) */
+  /** Host evaluations in parallel, and the threads of the builder's own work (refinement tests,
+   * elements, canonical refinement); 0: hardware concurrency (default 0). The asset's bytes do
+   * not depend on it. */
+  int threads;
   const char* store_path; /**< sample store file; NULL: keep samples in memory only */
   /** Largest absolute error the codec may add to positions, in model units; 0 (default) is
    * lossless; >= 0. */

@@ -82,9 +82,10 @@ TEST(BuilderThreads, MappedBuildsAreRaceFreeAndIdentical) {
   std::filesystem::remove_all(dir);
 }
 
-// Canonical refinement (mapping/canonical_refine.h) maps an element's terms on the executor's
-// threads: a bracket at two resolutions across its bend angle, where elements across the split
-// refine their canonical mesh, gives the same bytes on 1 and 3 threads.
+// Elements are built on the executor's threads, and canonical refinement (mapping/
+// canonical_refine.h) maps and measures an element's terms on them too: a bracket at two
+// resolutions across its bend angle, where elements across the split refine their canonical
+// mesh, gives the same bytes and the same element counts on 1 and 3 threads.
 TEST(BuilderThreads, RefinedCanonicalBuildsAreRaceFreeAndIdentical) {
   const char* err = nullptr;
   cadinterp::builder::SplitHost two;
@@ -105,15 +106,23 @@ TEST(BuilderThreads, RefinedCanonicalBuildsAreRaceFreeAndIdentical) {
   o.field_tolerance = 1.0;
   o.max_samples = 20;
   std::vector<std::vector<char>> assets;
+  std::vector<cadinterp::builder::BuildOutcome> outcomes;
   for (int threads : {1, 3}) {
     o.threads = threads;
     const std::string out = dir + "/a" + std::to_string(threads) + ".cadi";
-    const auto r = cadinterp::builder::build_asset(host, o, out);
+    outcomes.push_back(cadinterp::builder::build_asset(host, o, out));
+    const auto& r = outcomes.back();
     ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
     EXPECT_GT(r.stages.refined_elements, 0);
     assets.push_back(bytes_of(out));
   }
-  EXPECT_EQ(assets[0], assets[1]);
+  for (std::size_t i = 1; i < assets.size(); ++i) {
+    EXPECT_EQ(assets[0], assets[i]);
+    EXPECT_EQ(outcomes[0].stages.refined_elements, outcomes[i].stages.refined_elements);
+    EXPECT_EQ(outcomes[0].stages.refined_vertices, outcomes[i].stages.refined_vertices);
+    EXPECT_EQ(outcomes[0].report.stored_meshes, outcomes[i].report.stored_meshes);
+    EXPECT_EQ(outcomes[0].report.infeasible_elements, outcomes[i].report.infeasible_elements);
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -15,6 +15,7 @@
 #include "mapping/canonical_refine.h"
 #include "mapping/interior_solve.h"
 #include "mapping/neighbour_transfer.h"
+#include "mapping/parallel_for.h"
 #include "mesh/surface_distance.h"
 
 namespace cadinterp::builder {
@@ -28,6 +29,37 @@ std::vector<float> to_float(const std::vector<double>& v) {
 // Per element: canonical mesh = the host at its centre (§4.2); each term's sample mapped into
 // it. An element whose centre failed or whose terms cannot be mapped is infeasible.
 //
+// What building one element adds to the build's report and result. Elements are built on the
+// executor's thread count, each into its own tally, and the tallies are merged in element order:
+// the asset, the sums and the first reasons recorded do not depend on which thread built what.
+struct ElementTally {
+  format::ElementData ed;
+  bool ok = false, samples_feasible = false;
+  int stored_meshes = 0;
+  bool refined = false;
+  std::size_t refined_vertices = 0;
+  NeighbourTransferStats neighbour;
+  // The term that could not be mapped (at most one): its record and the mapper's reason.
+  std::vector<std::pair<InfeasiblePoint, std::string>> refused;
+  std::vector<std::pair<bool, std::string>> simulated;  // simulate_mapped outcomes, in order
+};
+
+void add(NeighbourTransferStats& to, const NeighbourTransferStats& d) {
+  to.neighbour_terms += d.neighbour_terms;
+  to.direct_failed += d.direct_failed;
+  to.bridged += d.bridged;
+  to.bridge_failed += d.bridge_failed;
+  to.compared += d.compared;
+  to.bridged_better += d.bridged_better;
+  to.bridge_inverted += d.bridge_inverted;
+  to.direct_hausdorff_max = std::max(to.direct_hausdorff_max, d.direct_hausdorff_max);
+  to.bridged_hausdorff_max = std::max(to.bridged_hausdorff_max, d.bridged_hausdorff_max);
+  to.direct_hausdorff_sum += d.direct_hausdorff_sum;
+  to.bridged_hausdorff_sum += d.bridged_hausdorff_sum;
+  to.direct_min_sj = std::min(to.direct_min_sj, d.direct_min_sj);
+  to.bridged_min_sj = std::min(to.bridged_min_sj, d.bridged_min_sj);
+}
+
 // The cubic neighbour transfer (§5.3, Fig. 15). A cubic element's terms include samples of
 // adjacent elements (Bbar(e)). Such a sample k can be mapped into the element's canonical mesh
 // directly (one §6 mapping, like every other term), or carried from the neighbour l''s
@@ -62,24 +94,32 @@ class ElementStage {
         K_(host.dim()),
         cubic_(opt.degree == core::Degree::Cubic) {}
 
+  // Elements are independent (each reads the rows and the thread-safe map cache, and writes
+  // its own tally), so they are built in parallel; the canonical refinement inside one runs on
+  // the same thread count, since a refined element can take far longer than the others.
   const Sample* run() {
+    std::vector<ElementTally> tallies(leaves_.size());
+    mapping::parallel_for(tallies.size(), exec_.concurrency(),
+                          [&](std::size_t e) { build_element(e, tallies[e]); });
     const Sample* field_source = nullptr;
-    for (std::size_t e = 0; e < leaves_.size(); ++e) build_element(e, field_source);
+    for (std::size_t e = 0; e < tallies.size(); ++e) merge(e, tallies[e], field_source);
     return field_source;
   }
 
  private:
-  void build_element(std::size_t e, const Sample*& field_source);
-  bool map_term(std::size_t e, int leaf, int crow, int k, std::unique_ptr<MappedSample>& bridged);
-  void refuse_term(std::size_t e, int row, int crow);
+  void build_element(std::size_t e, ElementTally& tally);
+  void merge(std::size_t e, ElementTally& tally, const Sample*& field_source);
+  bool map_term(std::size_t e, int leaf, int crow, int k, std::unique_ptr<MappedSample>& bridged,
+                ElementTally& tally);
+  void refuse_term(std::size_t e, int row, int crow, ElementTally& tally);
   void write_element(format::ElementData& ed, const Sample& canon, int crow, const int* terms,
                      int n, const std::vector<const MappedSample*>& carried);
   bool refine(int crow, const int* terms, int n, Sample& refined,
-              std::vector<MappedSample>& remapped);
-  bool bridge(int leaf, int crow, int k, MappedSample& res);
+              std::vector<MappedSample>& remapped, ElementTally& tally);
+  bool bridge(int leaf, int crow, int k, MappedSample& res, NeighbourTransferStats& st);
   int shared_sample(int leaf, int nb, int k) const;
-  bool carry(int k, int s, int nrow, int crow, MappedSample& res);
-  void compare_routes(int row, int crow, const MappedSample* viab);
+  bool carry(int k, int s, int nrow, int crow, MappedSample& res, NeighbourTransferStats& st);
+  void compare_routes(int row, int crow, const MappedSample* viab, NeighbourTransferStats& st);
 
   const BuildOptions& opt_;
   Executor& exec_;
@@ -98,23 +138,23 @@ class ElementStage {
 };
 
 // Element e (leaves_[e]): its terms, the canonical refinement where they depart from their own
-// boundaries, and its record (appended to the content, refused or not).
-void ElementStage::build_element(std::size_t e, const Sample*& field_source) {
-  format::ElementData ed;
+// boundaries, and its record (kept in the tally, refused or not).
+void ElementStage::build_element(std::size_t e, ElementTally& tally) {
+  format::ElementData& ed = tally.ed;
   const int leaf = leaves_[e];
   const double err = run_.leaf_error[static_cast<std::size_t>(leaf)];
   ed.error_estimate = std::isfinite(err) ? err * opt_.geometry_tolerance : -1.0;
   const int crow = run_.centre_row[static_cast<std::size_t>(leaf)];
   int n = 0;
   const int* terms = cb_.element_samples(static_cast<int>(e), &n);
-  const bool samples_feasible =
+  tally.samples_feasible =
       cb_.element_feasible(static_cast<int>(e)) && crow >= 0 && problem_.sample(crow).feasible;
-  bool ok = samples_feasible;
+  bool ok = tally.samples_feasible;
   // Per term: nullptr where the term's view (direct mapping or identity) is used, else its
   // sample carried from a neighbour element through a shared sample (§5.3).
   std::vector<std::unique_ptr<MappedSample>> bridged(static_cast<std::size_t>(n));
   for (int t = 0; ok && t < n; ++t)
-    ok = map_term(e, leaf, crow, terms[t], bridged[static_cast<std::size_t>(t)]);
+    ok = map_term(e, leaf, crow, terms[t], bridged[static_cast<std::size_t>(t)], tally);
   Sample refined;
   std::vector<MappedSample> remapped;
   bool use_refined = false;
@@ -122,63 +162,83 @@ void ElementStage::build_element(std::size_t e, const Sample*& field_source) {
   // bridge is defined on the canonical sample's own mesh).
   if (ok && opt_.canonical_refinement > 0 &&
       std::none_of(bridged.begin(), bridged.end(), [](const auto& b) { return b != nullptr; }))
-    use_refined = refine(crow, terms, n, refined, remapped);
-  if (ok) {
-    const Sample& canon = use_refined ? refined : problem_.sample(crow);
+    use_refined = refine(crow, terms, n, refined, remapped, tally);
+  tally.ok = ok;
+  if (!ok) return;
+  const Sample& canon = use_refined ? refined : problem_.sample(crow);
+  std::vector<const MappedSample*> carried(static_cast<std::size_t>(n));
+  for (int t = 0; t < n; ++t)
+    carried[static_cast<std::size_t>(t)] = use_refined ? &remapped[static_cast<std::size_t>(t)]
+                                                       : bridged[static_cast<std::size_t>(t)].get();
+  write_element(ed, canon, crow, terms, n, carried);
+  tally.stored_meshes = n;
+}
+
+// Adds element e's tally to the build's report and result (in element order, on one thread).
+void ElementStage::merge(std::size_t e, ElementTally& tally, const Sample*& field_source) {
+  add(out_.neighbour, tally.neighbour);
+  for (const auto& [simulated, unsimulated] : tally.simulated)
+    problem_.count_simulated(simulated, unsimulated);
+  if (tally.refined) {
+    ++details_.refined_elements;
+    details_.refined_vertices += static_cast<int>(tally.refined_vertices);
+  }
+  for (auto& [point, why] : tally.refused) {
+    out_.infeasible.push_back(std::move(point));
+    count_reason(details_.element_reasons, details_.other_infeasible_elements, why, {});
+  }
+  if (tally.ok) {
+    const int crow = run_.centre_row[static_cast<std::size_t>(leaves_[e])];
     if (!field_source) field_source = &problem_.sample(crow);
-    std::vector<const MappedSample*> carried(static_cast<std::size_t>(n));
-    for (int t = 0; t < n; ++t)
-      carried[static_cast<std::size_t>(t)] = use_refined
-                                                 ? &remapped[static_cast<std::size_t>(t)]
-                                                 : bridged[static_cast<std::size_t>(t)].get();
-    write_element(ed, canon, crow, terms, n, carried);
-    rep_.stored_meshes += n;
+    rep_.stored_meshes += tally.stored_meshes;
+    const double err = run_.leaf_error[static_cast<std::size_t>(leaves_[e])];
     if (std::isfinite(err)) rep_.max_error = std::max(rep_.max_error, err);
   } else {
     element_ok_[e] = 0;
     ++rep_.infeasible_elements;
-    if (samples_feasible) ++details_.unmapped_elements;
+    if (tally.samples_feasible) ++details_.unmapped_elements;
   }
-  out_.content.elements.push_back(std::move(ed));
+  out_.content.elements.push_back(std::move(tally.ed));
 }
 
 // Term sample k of element e (leaf `leaf`, canonical row crow): true when its view in the
 // canonical mesh exists, or when `bridged` holds it carried from a neighbour (§5.3: a cubic
 // term outside the element, by opt_.neighbour_transfer). False, the reason recorded, otherwise.
 bool ElementStage::map_term(std::size_t e, int leaf, int crow, int k,
-                            std::unique_ptr<MappedSample>& bridged) {
+                            std::unique_ptr<MappedSample>& bridged, ElementTally& tally) {
+  NeighbourTransferStats& st = tally.neighbour;
   const int row = run_.sample_row[static_cast<std::size_t>(k)];
   bool direct = false;
   bool outside = false;
   outside = cubic_ && !core::box_contains(tree_.node(leaf).box, basis_.sample(k), K_);
-  if (outside) ++out_.neighbour.neighbour_terms;
+  if (outside) ++st.neighbour_terms;
   if (outside &&
       (opt_.neighbour_transfer == NeighbourTransfer::Always || opt_.measure_neighbour_transfer)) {
     auto b = std::make_unique<MappedSample>();
-    if (bridge(leaf, crow, k, *b)) bridged = std::move(b);
+    if (bridge(leaf, crow, k, *b, st)) bridged = std::move(b);
   }
-  if (opt_.measure_neighbour_transfer && outside) compare_routes(row, crow, bridged.get());
+  if (opt_.measure_neighbour_transfer && outside) compare_routes(row, crow, bridged.get(), st);
   if (opt_.neighbour_transfer != NeighbourTransfer::Always) bridged.reset();
   MeshProblem::View m;
   if (!bridged) direct = problem_.view(row, crow, m);
   if (!direct && !bridged && outside) {
-    ++out_.neighbour.direct_failed;
+    ++st.direct_failed;
     if (opt_.neighbour_transfer == NeighbourTransfer::Fallback) {
       auto b = std::make_unique<MappedSample>();
-      if (bridge(leaf, crow, k, *b)) bridged = std::move(b);
+      if (bridge(leaf, crow, k, *b, st)) bridged = std::move(b);
     }
   }
   if (bridged) {
-    ++out_.neighbour.bridged;
+    ++st.bridged;
   } else if (!direct) {
-    refuse_term(e, row, crow);
+    refuse_term(e, row, crow, tally);
     return false;
   }
   return true;
 }
 
 // Records why element e is refused: term row `row` cannot be mapped into row crow's mesh.
-void ElementStage::refuse_term(std::size_t e, int row, int crow) {
+void ElementStage::refuse_term(std::size_t e, int row, int crow, ElementTally& tally) {
   const std::string& why = problem_.why(row, crow);
   // The recorded point is the element's centre; the message names the term's own sample
   // as well, so that the failing pair can be mapped again on its own.
@@ -188,8 +248,7 @@ void ElementStage::refuse_term(std::size_t e, int row, int crow) {
     std::snprintf(v, sizeof v, "%s%.6g", d ? ", " : "", problem_.point(row)[d]);
     term += v;
   }
-  out_.infeasible.push_back({problem_.point(crow), term + "): " + why});
-  count_reason(details_.element_reasons, details_.other_infeasible_elements, why, {});
+  tally.refused.push_back({{problem_.point(crow), term + "): " + why}, why});
 }
 
 // The element record: its canonical mesh `canon` and per term the positions (and fields) in
@@ -231,13 +290,13 @@ void ElementStage::write_element(format::ElementData& ed, const Sample& canon, i
 // mapped again onto it. The threshold lies below the tolerance so that the refined pairs meet
 // it. True when `refined` replaces the canonical mesh and remapped[t] term t's view in it.
 bool ElementStage::refine(int crow, const int* terms, int n, Sample& refined,
-                          std::vector<MappedSample>& remapped) {
+                          std::vector<MappedSample>& remapped, ElementTally& tally) {
   const Sample& canon = problem_.sample(crow);
   const double tolerance = 0.7 * opt_.geometry_tolerance;
   // The terms as mapped already (every view exists: map_term mapped them), from which
-  // refinement starts.
+  // refinement starts. Whether some term departs is refine_canonical's first measure (no round
+  // when none does), so each term's surface is indexed once.
   std::vector<const Sample*> sources;
-  bool departs = false;
   MeshProblem::View m;
   for (int t = 0; t < n; ++t) {
     const int row = run_.sample_row[static_cast<std::size_t>(terms[t])];
@@ -247,11 +306,7 @@ bool ElementStage::refine(int crow, const int* terms, int n, Sample& refined,
     r.vertices.assign(m.vertices, m.vertices + canon.vertices.size());
     for (std::size_t k = 0; k < canon.fields.size(); ++k)
       r.fields.emplace_back(m.fields[k], m.fields[k] + canon.fields[k].values.size());
-    departs = departs || (!problem_.same_class(row, crow) &&
-                          mapping::mapped_departure(problem_.sample(row), canon, r.vertices,
-                                                    tolerance, nullptr) > tolerance);
   }
-  if (!departs) return false;
   mapping::RefineOptions ro;
   ro.tolerance = tolerance;
   ro.rounds = opt_.canonical_refinement;
@@ -262,14 +317,14 @@ bool ElementStage::refine(int crow, const int* terms, int n, Sample& refined,
                                  ro) ||
       rs.rounds <= 0)
     return false;
-  ++details_.refined_elements;
-  details_.refined_vertices += static_cast<int>(rs.added_vertices);
+  tally.refined = true;
+  tally.refined_vertices = rs.added_vertices;
   for (int t = 0; opt_.simulate_mapped && t < n; ++t) {
     std::string unsimulated;
     const bool simulated =
         problem_.simulate_on_mapped(run_.sample_row[static_cast<std::size_t>(terms[t])], refined,
                                     remapped[static_cast<std::size_t>(t)], unsimulated);
-    problem_.count_simulated(simulated, unsimulated);
+    tally.simulated.emplace_back(simulated, unsimulated);
   }
   return true;
 }
@@ -277,7 +332,8 @@ bool ElementStage::refine(int crow, const int* terms, int n, Sample& refined,
 // Sample k (outside element `leaf`, canonical row crow) carried from a neighbour element
 // through a shared sample (§5.3): the first neighbour, in id order, whose box touches leaf's,
 // whose centre is feasible and through which k can be carried.
-bool ElementStage::bridge(int leaf, int crow, int k, MappedSample& res) {
+bool ElementStage::bridge(int leaf, int crow, int k, MappedSample& res,
+                          NeighbourTransferStats& st) {
   const core::IBox& box = tree_.node(leaf).box;
   const core::IPoint& pk = basis_.sample(k);
   std::vector<int> around;
@@ -288,9 +344,9 @@ bool ElementStage::bridge(int leaf, int crow, int k, MappedSample& res) {
     const int nrow = run_.centre_row[static_cast<std::size_t>(nb)];
     if (nrow < 0 || !problem_.sample(nrow).feasible) continue;
     const int s = shared_sample(leaf, nb, k);
-    if (s >= 0 && carry(k, s, nrow, crow, res)) return true;
+    if (s >= 0 && carry(k, s, nrow, crow, res, st)) return true;
   }
-  ++out_.neighbour.bridge_failed;
+  ++st.bridge_failed;
   return false;
 }
 
@@ -326,7 +382,8 @@ int ElementStage::shared_sample(int leaf, int nb, int k) const {
 // element's (row crow) by F: p_s^l -> p_s^{l'} of shared sample s (NeighbourBridge). False when
 // a view or the bridge fails, or the result has inverted tets (never emitted, as the mapper
 // itself refuses them).
-bool ElementStage::carry(int k, int s, int nrow, int crow, MappedSample& res) {
+bool ElementStage::carry(int k, int s, int nrow, int crow, MappedSample& res,
+                         NeighbourTransferStats& st) {
   const int krow = run_.sample_row[static_cast<std::size_t>(k)];
   const int srow = run_.sample_row[static_cast<std::size_t>(s)];
   MeshProblem::View pk_n, ps_n, ps_l;
@@ -346,7 +403,7 @@ bool ElementStage::carry(int k, int s, int nrow, int crow, MappedSample& res) {
   std::string why;
   if (!br.apply(in, res, why)) return false;
   if (mapping::tet_quality(res.vertices, canon.tets).inverted > 0) {
-    ++out_.neighbour.bridge_inverted;
+    ++st.bridge_inverted;
     return false;
   }
   return true;
@@ -354,7 +411,8 @@ bool ElementStage::carry(int k, int s, int nrow, int crow, MappedSample& res) {
 
 // BuildOptions::measure_neighbour_transfer: both routes of term row `row` into row crow's mesh
 // (the direct view, and `viab` carried through a shared sample) against the term's own sample.
-void ElementStage::compare_routes(int row, int crow, const MappedSample* viab) {
+void ElementStage::compare_routes(int row, int crow, const MappedSample* viab,
+                                  NeighbourTransferStats& st) {
   MeshProblem::View d;
   if (!viab || !problem_.view(row, crow, d)) return;
   const Sample& src = problem_.sample(row);
@@ -364,7 +422,6 @@ void ElementStage::compare_routes(int row, int crow, const MappedSample* viab) {
   const double hd = symmetric_hausdorff(dv, canon.triangles, src.vertices, src.triangles) / diag;
   const double hb =
       symmetric_hausdorff(viab->vertices, canon.triangles, src.vertices, src.triangles) / diag;
-  NeighbourTransferStats& st = out_.neighbour;
   ++st.compared;
   st.bridged_better += hb < hd ? 1 : 0;
   st.direct_hausdorff_max = std::max(st.direct_hausdorff_max, hd);

@@ -21,8 +21,10 @@ namespace cadinterp::builder {
 /// leaf), counted in details.counts and details, the unmapped term named in out.infeasible.
 /// Fills out.neighbour. Returns the canonical sample of the first element built (its fields and
 /// regions describe the asset), or nullptr when every element was refused.
-/// Elements are built one after another, so the result does not depend on the thread count;
-/// only an element's canonical refinement runs on exec's thread count.
+/// Elements (and, inside one, its canonical refinement) are built on exec.concurrency() threads;
+/// each fills its own record and counts, merged in element order, so the content, the counts
+/// and the reasons recorded do not depend on the thread count. Exceptions from a worker (e.g.
+/// std::bad_alloc) are rethrown here once every worker has stopped.
 const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
                            MeshProblem& problem, const core::AdaptiveRun& run,
                            const core::CompiledBasis& cb, const std::vector<int>& leaves,

@@ -3,13 +3,11 @@
 #include "builder/mesh_problem.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <limits>
-#include <thread>
 
 #include "mapping/field_transfer.h"
+#include "mapping/parallel_for.h"
 #include "mesh/surface_distance.h"
 
 namespace cadinterp::builder {
@@ -128,7 +126,9 @@ double MeshProblem::interpolation_error(int at, int centre, const int* terms, co
     if (std::sqrt(d2) <= target) err = std::sqrt(d2) / target;
   }
   if (err < 0)
-    err = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles) / target;
+    err = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles,
+                              hausdorff_threads_) /
+          target;
   if (nfields) {
     if (!view(at, centre, m)) return std::numeric_limits<double>::infinity();
     for (std::size_t f = 0; f < nfields; ++f) {
@@ -261,26 +261,12 @@ const std::string& MeshProblem::why(int src, int canon) {
 
 void MeshProblem::errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) {
   out.assign(q.size(), 0.0);
-  const std::size_t threads =
-      std::min<std::size_t>(q.size(), static_cast<std::size_t>(std::max(1, exec_.concurrency())));
-  if (threads <= 1) return AdaptiveProblem::errors(q, out);
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex failure_mu;
-  auto work = [&] {
-    try {
-      for (std::size_t i; (i = next.fetch_add(1)) < q.size();) out[i] = error(q[i]);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(failure_mu);
-      if (!failure) failure = std::current_exception();
-      next = q.size();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+  const int threads = std::max(1, exec_.concurrency());
+  // A wave with fewer tests than threads lends the spare ones to each test's two Hausdorff
+  // directions; otherwise one thread per test (a thread more per test would only oversubscribe
+  // the cores, and a 1-thread build stays serial).
+  hausdorff_threads_ = q.size() < static_cast<std::size_t>(threads) ? 2 : 1;
+  mapping::parallel_for(q.size(), threads, [&](std::size_t i) { out[i] = error(q[i]); });
 }
 
 bool MeshProblem::report_progress(int queued) {

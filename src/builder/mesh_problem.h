@@ -121,6 +121,8 @@ class MeshProblem final : public core::AdaptiveProblem {
   std::map<std::pair<int, int>, std::string> failures_;
   std::size_t map_bytes_ = 0;
   std::mutex maps_mu_;  // guards maps_, order_, failures_, map_bytes_
+  // Threads each refinement test's symmetric Hausdorff distance may use (set by errors()).
+  int hausdorff_threads_ = 1;
   int done_ = 0, elements_ = 0;
   double host_seconds_done_ = 0;
   bool cancel_ = false;

@@ -1,13 +1,13 @@
 #include "mapping/canonical_refine.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <set>
-#include <thread>
 #include <utility>
 
+#include "mapping/parallel_for.h"
 #include "mesh/surface_distance.h"
 
 namespace cadinterp::mapping {
@@ -130,6 +130,36 @@ double departure(const mesh::Sample& source, const mesh::SurfaceIndex& on_source
   return worst;
 }
 
+// The edges of the marked triangles of `c` (as mapped: V) to bisect for one source: per
+// triangle, each edge whose mapped midpoint lies off the triangle's face on the source (its tag;
+// the whole surface for a tag the source lacks, after a topology change) by at least half the
+// most of its edges does.
+std::vector<std::array<std::uint32_t, 2>> sagging_edges(
+    const mesh::Sample& c, const std::vector<double>& V, const std::vector<std::size_t>& marked,
+    const std::map<std::int32_t, mesh::SurfaceIndex>& on_face, const mesh::SurfaceIndex& whole) {
+  std::vector<std::array<std::uint32_t, 2>> edges;
+  for (std::size_t t : marked) {
+    const std::uint32_t* f = &c.triangles[3 * t];
+    const auto face = on_face.find(c.triangle_tags[t]);
+    const mesh::SurfaceIndex& under = face != on_face.end() ? face->second : whole;
+    double off[3], most = 0;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = f[k], b = f[(k + 1) % 3];
+      double mid[3];
+      for (int j = 0; j < 3; ++j)
+        mid[j] = 0.5 * (V[3 * std::size_t(a) + j] + V[3 * std::size_t(b) + j]);
+      off[k] = under.distance(mid);
+      most = std::max(most, off[k]);
+    }
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = f[k], b = f[(k + 1) % 3];
+      if (off[k] >= 0.5 * most && squared_length(V, a, b) > 0)
+        edges.push_back({std::min(a, b), std::max(a, b)});
+    }
+  }
+  return edges;
+}
+
 }  // namespace
 
 double mapped_departure(const mesh::Sample& source, const mesh::Sample& canonical,
@@ -146,6 +176,10 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
   RefineStats st;
   // The edge lists bisected so far, round by round (`c` below is the canonical bisected so).
   std::vector<std::vector<std::array<std::uint32_t, 2>>> history;
+  // Per source: of the canonical's own combinatorics (decided once, not per round).
+  std::vector<char> own(sources.size());
+  for (std::size_t i = 0; i < sources.size(); ++i)
+    own[i] = mesh::same_combinatorics(*sources[i], canonical) ? 1 : 0;
   // Every source onto `c`; false (with why) at the first that fails. A source of the
   // canonical's own combinatorics (the canonical sample itself, or one the builder blends with
   // it vertex by vertex) is bisected as the canonical was instead: its vertex i is the
@@ -156,26 +190,16 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
     out.assign(sources.size(), mesh::MappedSample());
     std::vector<std::string> whys(sources.size());
     std::vector<char> ok(sources.size(), 1);
-    std::atomic<std::size_t> next{0};
-    auto work = [&] {
-      for (std::size_t i; (i = next++) < sources.size();) {
-        if (mesh::same_combinatorics(*sources[i], canonical)) {
-          mesh::Sample b = *sources[i];
-          for (const auto& edges : history) b = bisect_edges(b, edges);
-          out[i].vertices = std::move(b.vertices);
-          for (mesh::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
-        } else {
-          ok[i] = mapper.map(*sources[i], c, out[i], whys[i]) ? 1 : 0;
-        }
+    parallel_for(sources.size(), options.threads, [&](std::size_t i) {
+      if (own[i]) {
+        mesh::Sample b = *sources[i];
+        for (const auto& edges : history) b = bisect_edges(b, edges);
+        out[i].vertices = std::move(b.vertices);
+        for (mesh::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
+      } else {
+        ok[i] = mapper.map(*sources[i], c, out[i], whys[i]) ? 1 : 0;
       }
-    };
-    std::vector<std::thread> pool;
-    const std::size_t workers = std::min<std::size_t>(
-        sources.size(), static_cast<std::size_t>(std::max(1, options.threads)));
-    const std::size_t extra = workers > 0 ? workers - 1 : 0;
-    for (std::size_t t = 0; t < extra; ++t) pool.emplace_back(work);
-    work();
-    for (std::thread& t : pool) t.join();
+    });
     for (std::size_t i = 0; i < sources.size(); ++i)
       if (!ok[i]) {
         w = whys[i];
@@ -183,56 +207,51 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
       }
     return true;
   };
-  std::vector<mesh::SurfaceIndex> on_source;
-  on_source.reserve(sources.size());
-  // Per source and face tag, that face's triangles alone: an edge's offset is measured from
-  // its own face, since a chord along a sharp CAD edge lies on the plane next to it (a bend's
-  // arc beside a flat side face) and measured from the whole surface would show no sag.
+  // Per source, its surface index, and per face tag that face's triangles alone: an edge's
+  // offset is measured from its own face, since a chord along a sharp CAD edge lies on the
+  // plane next to it (a bend's arc beside a flat side face) and measured from the whole surface
+  // would show no sag. A source of the canonical's combinatorics needs neither: bisected, its
+  // mapped surface is its own surface, which departs by nothing. The face indices are built the
+  // first time a source marks a triangle (most elements never do).
+  std::vector<std::unique_ptr<mesh::SurfaceIndex>> on_source(sources.size());
   std::vector<std::map<std::int32_t, mesh::SurfaceIndex>> on_face(sources.size());
-  for (std::size_t i = 0; i < sources.size(); ++i) {
+  std::vector<char> faces_built(sources.size(), 0);
+  parallel_for(sources.size(), options.threads, [&](std::size_t i) {
+    if (!own[i])
+      on_source[i] =
+          std::make_unique<mesh::SurfaceIndex>(sources[i]->vertices, sources[i]->triangles);
+  });
+  auto build_faces = [&](std::size_t i) {
     const mesh::Sample& s = *sources[i];
-    on_source.emplace_back(s.vertices, s.triangles);
     std::map<std::int32_t, std::vector<std::uint32_t>> faces;
     for (std::size_t t = 0; t < s.triangle_count(); ++t)
       faces[s.triangle_tags[t]].insert(faces[s.triangle_tags[t]].end(), &s.triangles[3 * t],
                                        &s.triangles[3 * t + 3]);
     for (const auto& [tag, F] : faces) on_face[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
-  }
+    faces_built[i] = 1;
+  };
   // The departure of every source on `c`, and the edges to bisect, over all sources: per
   // marked triangle, every edge whose mapped midpoint lies off the source's face by at least
   // half the most any of its edges does. On a cylinder a triangle's edge across the bend and
   // its diagonal have the same sag (kappa L^2 / 8 along the curvature kappa in the edge's
-  // direction), and splitting only one leaves the other's; the axial edge has none.
+  // direction), and splitting only one leaves the other's; the axial edge has none. Sources are
+  // measured on their threads (source i on one thread per call, so its lazily built face
+  // indices are too); the maximum and the union of edge sets do not depend on order.
   auto measure = [&](const mesh::Sample& c, const std::vector<mesh::MappedSample>& m,
                      std::set<std::array<std::uint32_t, 2>>& edges) {
-    double worst = 0;
-    for (std::size_t i = 0; i < sources.size(); ++i) {
+    std::vector<double> worst(sources.size(), 0.0);
+    std::vector<std::vector<std::array<std::uint32_t, 2>>> split(sources.size());
+    parallel_for(sources.size(), options.threads, [&](std::size_t i) {
+      if (own[i]) return;
       std::vector<std::size_t> marked;
-      worst = std::max(worst, departure(*sources[i], on_source[i], c, m[i].vertices,
-                                        options.tolerance, &marked));
-      const std::vector<double>& V = m[i].vertices;
-      for (std::size_t t : marked) {
-        const std::uint32_t* f = &c.triangles[3 * t];
-        // Its face on the source (a tag the source lacks, after a topology change: the whole).
-        const auto face = on_face[i].find(c.triangle_tags[t]);
-        const mesh::SurfaceIndex& under = face != on_face[i].end() ? face->second : on_source[i];
-        double off[3], most = 0;
-        for (int k = 0; k < 3; ++k) {
-          const std::uint32_t a = f[k], b = f[(k + 1) % 3];
-          double mid[3];
-          for (int j = 0; j < 3; ++j)
-            mid[j] = 0.5 * (V[3 * std::size_t(a) + j] + V[3 * std::size_t(b) + j]);
-          off[k] = under.distance(mid);
-          most = std::max(most, off[k]);
-        }
-        for (int k = 0; k < 3; ++k) {
-          const std::uint32_t a = f[k], b = f[(k + 1) % 3];
-          if (off[k] >= 0.5 * most && squared_length(V, a, b) > 0)
-            edges.insert({std::min(a, b), std::max(a, b)});
-        }
-      }
-    }
-    return worst;
+      worst[i] =
+          departure(*sources[i], *on_source[i], c, m[i].vertices, options.tolerance, &marked);
+      if (marked.empty()) return;
+      if (!faces_built[i]) build_faces(i);
+      split[i] = sagging_edges(c, m[i].vertices, marked, on_face[i], *on_source[i]);
+    });
+    for (const auto& e : split) edges.insert(e.begin(), e.end());
+    return worst.empty() ? 0.0 : *std::max_element(worst.begin(), worst.end());
   };
   refined = canonical;
   if (mapped.size() != sources.size() && !map_all(refined, mapped, why)) return false;

@@ -192,7 +192,8 @@ std::vector<double> vertex_distances(const std::vector<double>& VA,
 }
 
 double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std::uint32_t>& FA,
-                           const std::vector<double>& VB, const std::vector<std::uint32_t>& FB) {
+                           const std::vector<double>& VB, const std::vector<std::uint32_t>& FB,
+                           int threads) {
   auto one_way = [](const std::vector<double>& V1, const std::vector<std::uint32_t>& F1,
                     const std::vector<double>& V2, const std::vector<std::uint32_t>& F2) {
     double h = 0;
@@ -201,7 +202,7 @@ double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std:
   };
   // The two directions are independent: on large surfaces the second runs on another thread
   // (this is the builder's refinement test, on its critical path between host waves).
-  if (FA.size() + FB.size() < 6000)
+  if (threads < 2 || FA.size() + FB.size() < 6000)
     return std::max(one_way(VA, FA, VB, FB), one_way(VB, FB, VA, FA));
   double h2 = 0;
   std::thread other([&] { h2 = one_way(VB, FB, VA, FA); });

@@ -39,9 +39,11 @@ class SurfaceIndex {
 /// largest distance from a vertex of A to B and from a vertex of B to A. It bounds the true
 /// distance from below and approaches it as the triangles shrink; with both surfaces meshed at
 /// the resolution of the model (the builder's case) the two differ by far less than the errors
-/// being measured.
+/// being measured. With threads >= 2 the two directions of large surfaces run on two threads;
+/// a caller that already runs many such distances on its own threads passes 1.
 double symmetric_hausdorff(const std::vector<double>& VA, const std::vector<std::uint32_t>& FA,
-                           const std::vector<double>& VB, const std::vector<std::uint32_t>& FB);
+                           const std::vector<double>& VB, const std::vector<std::uint32_t>& FB,
+                           int threads = 2);
 
 /// Distances from every vertex of A (those referenced by FA) to B: for percentiles.
 std::vector<double> vertex_distances(const std::vector<double>& VA,
