@@ -1,21 +1,23 @@
 // The benchmark's reference run: the same optimization as on the asset, on the host itself,
 // with forward-difference gradients (free parameters + 1 host evaluations per gradient): the
 // speed-up the interpolant exists for (issue 28). Each evaluation runs the host's regenerate,
-// references and simulate (cadinterp_host_evaluate_serialized) and reads two of its per-sample
-// outputs: the objective and a constraint lower <= g(x). Ipopt with the optimizer's settings
-// (limited-memory Hessian, the box as a wall). Benchmark-only: not part of any library.
+// references and simulate (cadinterp_host_evaluate_serialized: the host's whole cost) and takes
+// the objective and a constraint lower <= g(x) from `outputs`, the closed forms the host writes
+// as its per-sample outputs (the sample's bytes are the builder's, not this module's to read).
+// Ipopt with the optimizer's settings (limited-memory Hessian, the box as a wall). Benchmark-only:
+// not part of any library.
 #pragma once
 
 #include <IpIpoptApplication.hpp>
 #include <IpTNLP.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "cadinterp/cadinterp_builder.h"
-#include "mesh/sample.h"
 
 namespace cadinterp::optimize::bench {
 
@@ -24,13 +26,13 @@ class HostFdNlp : public Ipopt::TNLP {
   using Index = Ipopt::Index;
   using Number = Ipopt::Number;
   // `full` holds all K values (fixed ones too); `free` the indices Ipopt moves, in [lo, hi].
+  using Outputs = std::function<void(const double* x, double* f, double* g)>;
   HostFdNlp(const cadinterp_host* host, std::vector<double> full, std::vector<int> free,
-            std::string objective, std::string constraint, double lower)
+            Outputs outputs, double lower)
       : host_(host),
         full_(std::move(full)),
         free_(std::move(free)),
-        objective_(std::move(objective)),
-        constraint_(std::move(constraint)),
+        outputs_(std::move(outputs)),
         lower_(lower) {}
 
   int host_evaluations = 0;
@@ -90,14 +92,9 @@ class HostFdNlp : public Ipopt::TNLP {
     ++host_evaluations;
     if (cadinterp_host_evaluate_serialized(host_, full.data(), &bytes, &size) != CADINTERP_OK)
       return false;
-    const mesh::Sample s = mesh::deserialize(static_cast<const std::uint8_t*>(bytes), size);
     cadinterp_bytes_free(bytes);
-    bool have_f = false, have_g = false;
-    for (const mesh::Output& o : s.outputs) {
-      if (o.name == objective_) *f = o.value, have_f = true;
-      if (o.name == constraint_) *g = o.value, have_g = true;
-    }
-    return s.feasible && have_f && have_g;
+    outputs_(full.data(), f, g);
+    return true;
   }
   std::vector<double> at(Index n, const Number* x) const {
     std::vector<double> full = full_;
@@ -143,7 +140,7 @@ class HostFdNlp : public Ipopt::TNLP {
   const cadinterp_host* host_;
   std::vector<double> full_;
   std::vector<int> free_;
-  std::string objective_, constraint_;
+  Outputs outputs_;
   double lower_;
   std::vector<double> cached_x_, grad_x_, grad_f_, grad_g_;
   double cached_f_ = 0, cached_g_ = 0;
