@@ -219,9 +219,9 @@ void BM_OptimizeOnTheHostWithDifferences(benchmark::State& state) {
   for (auto _ : state) {
     Ipopt::SmartPtr<HostFdNlp> nlp = new HostFdNlp(
         &fixture().host->host, std::vector<double>(kStart, kStart + kK), {0, 1},
-        [h = fixture().host.get()](const double* x, double* f, double* g) {
-          *f = h->integral_q(x);  // the outputs exact_integral_q, brep_volume
-          *g = BoxHost::height(x);
+        [h = fixture().host.get()](const double* at, double* f, double* g) {
+          *f = h->integral_q(at);  // the outputs exact_integral_q, brep_volume
+          *g = BoxHost::height(at);
         },
         kVolumeLimit);
     const Ipopt::ApplicationReturnStatus s = cadinterp::optimize::bench::solve_on_host(nlp);
