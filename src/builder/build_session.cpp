@@ -280,17 +280,8 @@ cadinterp_status BuildSession::submit_written(std::uint64_t id, cadinterp_status
                 : "the host failed (status " + std::to_string(static_cast<int>(host_status)) + ")";
   } else if (!r->out.mesh_set) {
     err = "the answer has no mesh (cadinterp_sample_set_mesh was not called)";
-  } else {
-    const std::string v = validate(s);
-    if (!v.empty()) err = "host output: " + v;
   }
-  if (!err.empty()) {
-    s = Sample{};
-    s.message = err;
-  } else {
-    s.feasible = true;
-    s.message.clear();
-  }
+  s = mesh::settle(std::move(s), std::move(err));
   s.host_seconds = seconds_since(r->handed_out);
   return answer(r, std::move(s));
 }

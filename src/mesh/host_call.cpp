@@ -127,20 +127,24 @@ std::string Host::simulate_into(const double* x, cadinterp_sample& out) const {
   return guarded("simulate", out, [&] { return host_.simulate(host_.user, x, &m, &out); });
 }
 
-Sample Host::finish(cadinterp_sample& out, std::string err,
-                    std::chrono::steady_clock::time_point t0) {
+Sample settle(Sample written, std::string err) {
   if (err.empty()) {
-    const std::string v = validate(out.sample);
+    const std::string v = validate(written);
     if (!v.empty()) err = "host output: " + v;
   }
-  Sample s = std::move(out.sample);
   if (!err.empty()) {
-    s = Sample{};
-    s.message = err;
-  } else {
-    s.feasible = true;
-    s.message.clear();
+    Sample failed;
+    failed.message = std::move(err);
+    return failed;
   }
+  written.feasible = true;
+  written.message.clear();
+  return written;
+}
+
+Sample Host::finish(cadinterp_sample& out, std::string err,
+                    std::chrono::steady_clock::time_point t0) {
+  Sample s = settle(std::move(out.sample), std::move(err));
   s.host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
 }

@@ -19,6 +19,12 @@ struct cadinterp_sample {
 
 namespace cadinterp::mesh {
 
+/// What the host wrote, settled: validated and feasible when `err` is "" and validate() finds
+/// nothing, else an empty infeasible Sample with the message. The one rule for every path a
+/// host's answer takes (Host's own calls, a build session's answers); host_seconds is the
+/// caller's to set.
+Sample settle(Sample written, std::string err);
+
 class Host {
  public:
   /// Copies `h`; throws std::invalid_argument naming the first inconsistency.
