@@ -5,7 +5,8 @@
  * outputs untouched on failure, libigl-style shapes). Link libcadinterp_builder.
  *
  * EXPERIMENTAL ABI (CADINTERP_BUILDER_ABI_VERSION, 0): unlike the runtime's frozen ABI 1, this
- * header may change incompatibly in any release until the builder's pull API lands; each change
+ * header may change incompatibly in any release while its version is 0 (the build sessions below
+ * are its newest part and the likeliest to change); each change
  * is listed in CHANGELOG.md and the SONAME libcadinterp_builder.so.N changes with it, so a
  * program built against another builder ABI fails to load rather than misbehave. Integrators who
  * ship the builder should pin the library version and rebuild on upgrade. Assets the builder
