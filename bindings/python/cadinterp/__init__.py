@@ -12,7 +12,7 @@ and libcadinterp_optimize (cadinterp_optimize.h); bindings/python/README.md is t
 """
 from ._errors import *  # noqa: F401,F403  (Error and one class per status)
 from ._errors import __all__ as _error_names
-from ._types import BuildReport, Field, InfeasiblePoint, Parameter, Provenance, Region
+from ._types import BuildReport, Field, InfeasiblePoint, Output, Parameter, Provenance, Region
 from ._host import Host
 from ._optimize import Evaluation, OptimizeResult, OptimizerUnavailableError, Problem
 from ._cadinterp import (Asset, Gradient, Mesh, build, builder_version, format_version,
@@ -21,6 +21,6 @@ from ._cadinterp import (Asset, Gradient, Mesh, build, builder_version, format_v
 __version__ = version()
 
 __all__ = ["Asset", "Mesh", "Gradient", "build", "Host", "BuildReport", "Parameter", "Field",
-           "Region", "InfeasiblePoint", "Provenance", "version", "builder_version",
+           "Output", "Region", "InfeasiblePoint", "Provenance", "version", "builder_version",
            "format_version", "status_string", "Problem", "OptimizeResult", "Evaluation",
            "OptimizerUnavailableError"] + list(_error_names)

@@ -11,7 +11,9 @@ The protocol (bindings/python/README.md has the full reference):
         parameters = [("width", 20.0, 40.0, "mm"), ("hole", 2.0, 6.0)]  # (name, lower, upper[, unit])
         thread_safe = False               # optional; True: callbacks may run concurrently
         def regenerate(self, x):          # x: float64 array of K values
-            return dict(vertices=..., tets=..., triangles=..., triangle_tags=...)
+            return dict(vertices=..., tets=..., triangles=..., triangle_tags=...,
+                        outputs={"brep_volume": (v, "mm^3")})  # optional: exact scalars
+
         def references(self, x, mesh):    # optional; mesh: regenerate's dict, arrays converted
             return dict(points=[(id, (px, py, pz))], paths=[(id_a, id_b, polyline)],
                         regions=[(name, kind, face_tags)])                  # each key optional
@@ -120,8 +122,32 @@ def _mapping(value, what, keys):
 _MESH_KEYS = ("vertices", "tets", "triangles", "triangle_tags")
 
 
+def _outputs(value):
+    """regenerate's optional "outputs": {name: value or (value, unit)}, checked: [(name, value,
+    unit)] in the dict's order (every sample must give the same names in the same order)."""
+    if value is None:
+        return []
+    if not isinstance(value, Mapping):
+        raise TypeError("regenerate's outputs must be a dict {name: value or (value, unit)}")
+    out = []
+    for name, v in value.items():
+        unit = ""
+        if isinstance(v, tuple):
+            if len(v) != 2:
+                raise ValueError(f"output '{name}': give a value or (value, unit)")
+            v, unit = v
+        if not isinstance(name, str) or not name or not isinstance(unit, str):
+            raise ValueError("an output's name (non-empty) and unit must be str")
+        v = float(v)
+        if not math.isfinite(v):
+            raise ValueError(f"output '{name}' is not finite: {v}")
+        out.append((name, v, unit))
+    return out
+
+
 def regenerate(host, x):
-    """host.regenerate(x), checked: (mesh dict for references, vertices, tets, triangles, tags)."""
+    """host.regenerate(x), checked: (mesh dict for references, vertices, tets, triangles, tags,
+    [(output name, value, unit)])."""
     mesh = host.regenerate(x)
     if not isinstance(mesh, Mapping):
         raise TypeError(f"regenerate must return a dict, got {type(mesh).__name__}")
@@ -139,7 +165,7 @@ def regenerate(host, x):
     # four arrays as the builder got them.
     converted = dict(mesh)
     converted.update(vertices=v, tets=t, triangles=f, triangle_tags=tags)
-    return converted, v, t, f, tags
+    return converted, v, t, f, tags, _outputs(mesh.get("outputs"))
 
 
 def _id(value, what):

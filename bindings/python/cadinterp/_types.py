@@ -12,13 +12,17 @@ Field.__doc__ = ("A field: location 'vertex' or 'tet', components per row, unit 
 Region = namedtuple("Region", "name kind face_tags")
 Region.__doc__ = "A boundary-condition region: its kind ('fixed', 'force', ...) and face tags."
 
+Output = namedtuple("Output", "name unit")
+Output.__doc__ = ("A per-sample scalar output the host computed exactly (B-rep volume, ...), "
+                  "interpolated with the mesh's weights; unit '' if none.")
+
 InfeasiblePoint = namedtuple("InfeasiblePoint", "x message")
 InfeasiblePoint.__doc__ = "A point where the builder's host failed, with the host's message."
 
 Provenance = namedtuple("Provenance", "builder_version host options")
 Provenance.__doc__ = "How the asset was built: builder version, host name, options (JSON text)."
 
-for _cls in (Parameter, Field, Region, InfeasiblePoint, Provenance):
+for _cls in (Parameter, Field, Output, Region, InfeasiblePoint, Provenance):
     _cls.__module__ = "cadinterp"
 
 

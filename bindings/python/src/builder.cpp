@@ -102,7 +102,8 @@ struct Bridge {
 extern "C" cadinterp_status regenerate_cb(void* user, const double* x, cadinterp_sample* out) {
   Bridge& b = *static_cast<Bridge*>(user);
   return b.guarded(out, [&] {
-    // (mesh dict, vertices, tets, triangles, tags) in the dtypes and layout of the C ABI.
+    // (mesh dict, vertices, tets, triangles, tags, outputs) in the dtypes and layout of the C
+    // ABI.
     const py::tuple r = b.adapter.attr("regenerate")(b.host, b.point(x));
     const auto v = r[1].cast<CArray<double>>();
     const auto t = r[2].cast<CArray<uint32_t>>();
@@ -112,6 +113,13 @@ extern "C" cadinterp_status regenerate_cb(void* user, const double* x, cadinterp
                                            std::size_t(t.shape(0)), f.data(), tags.data(),
                                            std::size_t(f.shape(0))),
                  "regenerate's mesh");
+    for (py::handle item : r[5].cast<py::list>()) {
+      const auto name = item[py::int_(0)].cast<std::string>();
+      const auto unit = item[py::int_(2)].cast<std::string>();
+      check_sample(cadinterp_sample_add_output(out, name.c_str(), item[py::int_(1)].cast<double>(),
+                                               unit.empty() ? nullptr : unit.c_str()),
+                   "regenerate's output '" + name + "'");
+    }
     b.keep_mesh(out, r[0]);
   });
 }

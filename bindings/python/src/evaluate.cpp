@@ -310,6 +310,53 @@ py::object Asset::integral(py::handle x, py::handle field, int component, py::ha
   return py::make_tuple(value, grad);
 }
 
+py::object Asset::eval_outputs(py::handle x, py::handle outputs, bool gradient) const {
+  pool();
+  const auto xa = as_point(x, k_);
+  std::vector<int> which;
+  const auto add = [&](py::handle key) {
+    if (!py::isinstance<py::str>(key))
+      throw py::type_error("an output is named by its name (str), got " +
+                           py::str(py::type::of(key)).cast<std::string>());
+    const std::string name = key.cast<std::string>();
+    const auto it = std::find(output_names_.begin(), output_names_.end(), name);
+    if (it == output_names_.end()) {
+      std::string known;
+      for (const std::string& n : output_names_) known += (known.empty() ? "" : ", ") + n;
+      throw StatusError(CADINTERP_E_NOT_FOUND, "no output named '" + name + "' (the asset has: " +
+                                                   (known.empty() ? "no outputs" : known) + ")");
+    }
+    which.push_back(static_cast<int>(it - output_names_.begin()));
+  };
+  if (outputs.is_none()) {
+    for (std::size_t i = 0; i < output_names_.size(); ++i) which.push_back(static_cast<int>(i));
+  } else if (py::isinstance<py::str>(outputs)) {
+    add(outputs);
+  } else {
+    for (py::handle key : py::iter(outputs)) add(key);
+  }
+  const auto n = static_cast<py::ssize_t>(which.size());
+  std::vector<double> values(which.size());
+  std::vector<double> grad(gradient ? which.size() * static_cast<std::size_t>(k_) : 0);
+  if (n > 0)
+    leased_call(*this, xa, [&](cadinterp_workspace* ws) {
+      return cadinterp_eval_outputs(ws, xa.data(), which.data(), static_cast<int>(n), values.data(),
+                                    gradient ? grad.data() : nullptr);
+    });
+  py::dict v, g;
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const std::string& name = output_names_[static_cast<std::size_t>(which[std::size_t(i)])];
+    v[py::str(name)] = values[std::size_t(i)];
+    if (gradient) {
+      py::array_t<double> d(k_);
+      std::copy_n(grad.data() + i * k_, k_, d.mutable_data());
+      g[py::str(name)] = d;
+    }
+  }
+  if (!gradient) return std::move(v);
+  return py::make_tuple(v, g);
+}
+
 void init_evaluate(py::module_& m, py::class_<Asset>& cls) {
   py::class_<Mesh>(m, "Mesh", R"(The mesh at x (Asset.eval). Every array is a read-only view of
 the workspace that computed it and keeps that workspace (and the asset) alive: valid for as long
@@ -359,7 +406,13 @@ solid at x; with gradient=True also {'gradient': the same keys, K derivatives ea
 boundary region (its name or index), as cadinterp_eval_integral: per-vertex fields integrated
 piecewise-linearly, per-tet fields piecewise-constantly; field None integrates 1 (the volume, or
 the region's area). A float; with grad=True (value, K float64 derivatives), exact for the mesh
-(paper Eq. 13). Errors as eval, and InvalidArgumentError for a component out of range.)");
+(paper Eq. 13). Errors as eval, and InvalidArgumentError for a component out of range.)")
+      .def("eval_outputs", &Asset::eval_outputs, arg("x"), arg("outputs") = py::none(),
+           arg("grad") = false,
+           R"(The per-sample scalar outputs at x (Asset.outputs), interpolated with the mesh's
+basis weights without decoding a mesh (cadinterp_eval_outputs): {name: float}; with grad=True
+({name: float}, {name: K float64 derivatives}), exact for the interpolant. outputs: None (all),
+a name, or a sequence of names. Errors as eval, and NotFoundError for an unknown name.)");
 }
 
 }  // namespace cadinterp_py

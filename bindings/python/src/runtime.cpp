@@ -52,7 +52,7 @@ namespace {
 /// The namedtuple classes of cadinterp._types, looked up once at import (leaked references, as
 /// the error class in module.cpp).
 struct Types {
-  py::handle parameter, field, region, infeasible_point, provenance;
+  py::handle parameter, field, output, region, infeasible_point, provenance;
 };
 Types g_types;
 
@@ -113,7 +113,7 @@ Asset::Asset(py::object source) {
 /// readable after close() and costs nothing per query.
 void Asset::read_metadata(const cadinterp_asset* a) {
   k_ = cadinterp_parameter_count(a);
-  py::list parameters, fields, regions, infeasible;
+  py::list parameters, fields, outputs, regions, infeasible;
   py::array_t<double> bounds({static_cast<py::ssize_t>(k_), py::ssize_t{2}});
   for (int i = 0; i < k_; ++i) {
     cadinterp_parameter_info p{};
@@ -133,6 +133,12 @@ void Asset::read_metadata(const cadinterp_asset* a) {
     fields_.push_back({f.name, f.location, f.components});
     fields.append(
         g_types.field(f.name, location_name(f.location), f.components, unit, f.max_abs_error));
+  }
+  for (int i = 0; i < cadinterp_output_count(a); ++i) {
+    const char *name = nullptr, *unit = nullptr;
+    check(cadinterp_output(a, i, &name, &unit), "cadinterp_output");
+    output_names_.emplace_back(name);
+    outputs.append(g_types.output(name, unit ? unit : ""));
   }
   for (int i = 0; i < cadinterp_region_count(a); ++i) {
     cadinterp_region_info r{};
@@ -156,6 +162,7 @@ void Asset::read_metadata(const cadinterp_asset* a) {
   info_["parameters"] = parameters;
   info_["bounds"] = bounds;
   info_["fields"] = fields;
+  info_["outputs"] = outputs;
   info_["regions"] = regions;
   info_["infeasible_points"] = infeasible;
   info_["provenance"] = g_types.provenance(prov.builder_version, prov.host, prov.options);
@@ -306,6 +313,7 @@ void init_runtime(py::module_& m) {
   const py::module_ types = py::module_::import("cadinterp._types");
   for (auto [slot, name] : {std::pair{&g_types.parameter, "Parameter"},
                             {&g_types.field, "Field"},
+                            {&g_types.output, "Output"},
                             {&g_types.region, "Region"},
                             {&g_types.infeasible_point, "InfeasiblePoint"},
                             {&g_types.provenance, "Provenance"}}) {
@@ -328,8 +336,9 @@ workspace). A context manager: `with cadinterp.Asset(p) as a:` closes it on exit
       .def("__exit__", [](Asset& a, py::args) { a.close(); })
       .def("__repr__", &Asset::repr)
       .def_property_readonly("parameter_count", &Asset::parameter_count, "K, the parameters.");
-  for (const char* what : {"parameters", "bounds", "fields", "regions", "infeasible_points",
-                           "provenance", "format_version", "degree", "element_count"})
+  for (const char* what :
+       {"parameters", "bounds", "fields", "outputs", "regions", "infeasible_points", "provenance",
+        "format_version", "degree", "element_count"})
     cls.def_property_readonly(what, [what](const Asset& a) { return a.describe(what); });
   cls.def("locate", &Asset::locate, py::arg("x"),
           "(element, feasible): the element holding x and whether eval succeeds there.")

@@ -107,6 +107,7 @@ class Asset {
   py::dict eval_properties(py::handle x, double density, py::handle direction, bool gradient) const;
   py::object integral(py::handle x, py::handle field, int component, py::handle region,
                       bool gradient) const;
+  py::object eval_outputs(py::handle x, py::handle outputs, bool gradient) const;
 
   /// The pool, or ValueError once closed.
   std::shared_ptr<WorkspacePool> pool() const;
@@ -128,6 +129,7 @@ class Asset {
   std::shared_ptr<WorkspacePool> pool_;
   std::vector<FieldMeta> fields_;
   std::vector<std::string> parameter_names_;
+  std::vector<std::string> output_names_;
   std::vector<double> lower_, upper_;
   py::dict info_;  // parameters, fields, regions, ... as Python objects, built at open
   std::string source_;

@@ -262,3 +262,63 @@ def test_calling_thread_runs_the_host_only_on_this_thread(tmp_path):
     assert threads == {threading.get_ident()}
     cadinterp.build(BoxHost(), tmp_path / "w.cadi", threads=2, **options)
     assert (tmp_path / "c.cadi").read_bytes() == (tmp_path / "w.cadi").read_bytes()
+
+
+class OutputsHost(BoxHost):
+    """The box with two exact per-sample outputs: its volume w h (0.5 + 0.25 w^2) and w + h."""
+    identity = BoxHost.identity + ", outputs volume and w_plus_h"
+
+    def regenerate(self, x):
+        mesh = super().regenerate(x)
+        w, h = x
+        mesh["outputs"] = {"volume": (w * h * (0.5 + 0.25 * w * w), "mm^3"), "w_plus_h": w + h}
+        return mesh
+
+
+def test_outputs_are_interpolated_with_exact_gradients(tmp_path):
+    report = cadinterp.build(OutputsHost(), tmp_path / "o.cadi", geometry_tolerance=1e-3,
+                             field_tolerance=1e-3, threads=2)
+    assert report.infeasible_points == 0
+    with cadinterp.Asset(tmp_path / "o.cadi") as a:
+        assert a.outputs == [cadinterp.Output("volume", "mm^3"), cadinterp.Output("w_plus_h", "")]
+        rng = np.random.default_rng(7)
+        for x in rng.uniform(1.0, 2.0, size=(20, 2)):
+            w, h = x
+            values = a.eval_outputs(x)
+            # w + h is linear: every basis reproduces it; the volume is held to field_tolerance.
+            assert values["w_plus_h"] == pytest.approx(w + h, abs=1e-12)
+            exact = w * h * (0.5 + 0.25 * w * w)
+            assert values["volume"] == pytest.approx(exact, rel=5e-3)
+            only, grads = a.eval_outputs(x, "volume", grad=True)
+            assert list(only) == ["volume"] and only["volume"] == values["volume"]
+            # The gradient is the interpolant's own: central differences of eval_outputs agree
+            # away from element boundaries (a linear asset's kinks), checked in a small step.
+            for d in range(2):
+                step = np.zeros(2)
+                step[d] = 1e-7
+                fd = (a.eval_outputs(x + step, "volume")["volume"] -
+                      a.eval_outputs(x - step, "volume")["volume"]) / 2e-7
+                assert grads["volume"][d] == pytest.approx(fd, rel=1e-4, abs=1e-6)
+            _, g = a.eval_outputs(x, ["w_plus_h"], grad=True)
+            np.testing.assert_allclose(g["w_plus_h"], [1.0, 1.0], atol=1e-9)
+        with pytest.raises(cadinterp.NotFoundError, match="no output named 'mass'"):
+            a.eval_outputs([1.5, 1.5], "mass")
+        with pytest.raises(TypeError):
+            a.eval_outputs([1.5, 1.5], [0])
+    with cadinterp.Asset(tmp_path / "o.cadi") as a:
+        assert a.eval_outputs([1.5, 1.5], []) == {}
+
+
+def test_a_non_finite_output_makes_the_point_infeasible(tmp_path):
+    class Bad(OutputsHost):
+        identity = OutputsHost.identity + ", nan"
+
+        def regenerate(self, x):
+            mesh = super().regenerate(x)
+            if x[0] > 1.5:
+                mesh["outputs"]["volume"] = float("nan")
+            return mesh
+
+    report = cadinterp.build(Bad(), tmp_path / "b.cadi", **COARSE)
+    assert report.infeasible_points > 0
+    assert any("not finite" in message for message, _ in report.infeasible_reasons)
