@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cadinterp/cadinterp.h"
@@ -17,6 +18,7 @@
 #include "cli_commands.h"
 #include "cli_common.h"
 #include "json_writer.h"
+#include "optimize_grid.h"
 #include "optimize_setup.h"
 #ifdef CADINTERP_CLI_HAVE_VERIFY
 #include "host_library.h"
@@ -32,6 +34,7 @@ struct Args {
   bool json = false, quiet = false;
   bool verify = false;
   std::string host, model, host_options;
+  int grid = 0, host_grid = 0, threads = 0;
 };
 
 // A SpecError as a usage error: the option, the message, the text and a caret under the
@@ -89,12 +92,66 @@ void print_text(const Args& a, const cadinterp_optimize_result& r,
   if (r.linear_asset) std::printf("note:        %s\n", r.note);
 }
 
+std::string point_text(const std::vector<std::string>& names, const std::vector<double>& x) {
+  std::string out;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    out += fmt("%s%s=%.6g", i ? " " : "", names[i].c_str(), x[i]);
+  return out;
+}
+
+// "1.2 % below the grid's best: x* beats every grid point" (objectives compared as minimized).
+std::string compared_to_best(double objective, const GridSummary& g) {
+  const double best = g.best_values[0];
+  const double rel = best != 0 ? 100.0 * (objective - best) / std::fabs(best) : objective - best;
+  return fmt("%.3g%s %s", std::fabs(rel), best != 0 ? " %" : " (abs)",
+             rel <= 0 ? "below the grid's best: x* beats every grid point"
+                      : "above the grid's best: a grid point beats x*");
+}
+
+// The grid's counts and best point, and x*'s objective (`xstar`: which value it is) against it.
+void print_grid(const char* label, const char* what, const GridSummary& g, double objective,
+                const char* xstar, const std::vector<std::string>& names) {
+  std::printf(
+      "%-12s %s, %d per free parameter: %zu points in %s; %zu not evaluated, %zu violate "
+      "a constraint\n",
+      label, what, g.per_axis, g.points, human_seconds(g.seconds).c_str(), g.failed, g.violating);
+  if (g.failed) std::printf("  first not evaluated: %s\n", g.first_failure.c_str());
+  if (!g.found) {
+    std::printf("  no grid point meets the constraints\n");
+    return;
+  }
+  std::printf("  best:      objective %.9g at %s\n", g.best_values[0],
+              point_text(names, g.best_x).c_str());
+  std::printf("  x*:        objective %.9g (%s), %s\n", objective, xstar,
+              compared_to_best(objective, g).c_str());
+}
+
+void write_grid(JsonWriter& w, const char* key, const GridSummary& g,
+                const std::vector<std::string>& names) {
+  w.key(key).begin_object();
+  w.field("per_axis", g.per_axis).field("points", static_cast<std::uint64_t>(g.points));
+  w.field("not_evaluated", static_cast<std::uint64_t>(g.failed));
+  w.field("violating", static_cast<std::uint64_t>(g.violating));
+  w.field("seconds", g.seconds).field("found", g.found);
+  if (g.failed) w.field("first_not_evaluated", g.first_failure);
+  if (g.found) {
+    w.key("best_x").begin_object();
+    for (std::size_t i = 0; i < names.size(); ++i) w.field(names[i], g.best_x[i]);
+    w.end_object();
+    w.key("best_values").begin_array();
+    for (double v : g.best_values) w.value(v);
+    w.end_array();
+  }
+  w.end_object();
+}
+
 #ifdef CADINTERP_CLI_HAVE_VERIFY
 // The host named by --host, checked against the asset before any work: a library that cannot be
 // loaded or refuses the model is a runtime failure (exit 1), other parameters a usage error.
 const cadinterp_host* load_verify_host(const Args& a, const cadinterp_asset* asset,
                                        tools::HostLibrary& library) {
-  if (a.host.empty()) throw UsageError("--verify needs --host LIB.so (and usually --model)");
+  if (a.host.empty())
+    throw UsageError("--verify and --host-grid need --host LIB.so (and usually --model)");
   const cadinterp_host* host = nullptr;
   try {
     host = library.load(a.host, a.model, a.host_options);
@@ -123,25 +180,6 @@ std::string relative_difference(double interpolated, const TrueValue& t) {
   return t.value != 0 ? fmt("%.3g %%", 100.0 * d / std::fabs(t.value)) : fmt("%.3g (abs)", d);
 }
 
-// Whether `value` meets the constraint "EXPR <= V" (>=, ==: within 1e-6 relative); -1 when the
-// text has no comparison with a number (the parser accepted it, so this does not happen).
-int meets(const std::string& constraint, double value) {
-  for (const char* op : {"<=", ">=", "=="}) {
-    const std::size_t at = constraint.rfind(op);
-    double v = 0;
-    if (at == std::string::npos) continue;
-    std::string rhs = constraint.substr(at + 2);
-    rhs.erase(0, rhs.find_first_not_of(" \t"));
-    rhs.erase(rhs.find_last_not_of(" \t") + 1);
-    if (!parse_double(rhs, &v)) continue;
-    const double slack = 1e-6 * std::max(1.0, std::fabs(v));
-    if (op[0] == '<') return value <= v + slack;
-    if (op[0] == '>') return value >= v - slack;
-    return std::fabs(value - v) <= slack;
-  }
-  return -1;
-}
-
 void print_verification(const Args& a, const cadinterp_optimize_result& r, const Verification& v) {
   std::printf("verify:      the host at x* (%s%s%s): ", a.host.c_str(),
               a.model.empty() ? "" : ", model ", a.model.c_str());
@@ -160,7 +198,7 @@ void print_verification(const Args& a, const cadinterp_optimize_result& r, const
                 t.defined ? fmt("%.9g", t.value).c_str() : "n/a",
                 relative_difference(interp, t).c_str());
     if (!t.defined) std::printf("    n/a: %s\n", t.reason.c_str());
-    if (t.defined && f > 0 && meets(name, t.value) == 0)
+    if (t.defined && f > 0 && constraint_met(name, t.value) == 0)
       std::printf("    the host's value does NOT meet this constraint\n");
   }
 }
@@ -181,8 +219,9 @@ void write_verification(JsonWriter& w, const Args& a, const cadinterp_optimize_r
     w.field("interpolated", f == 0 ? r.objective : r.constraints[f - 1]);
     if (v.values[f].defined) {
       w.field("true", v.values[f].value);
-      if (f > 0 && meets(a.spec.subject_to[f - 1], v.values[f].value) >= 0)
-        w.field("true_meets_constraint", meets(a.spec.subject_to[f - 1], v.values[f].value) == 1);
+      if (f > 0 && constraint_met(a.spec.subject_to[f - 1], v.values[f].value) >= 0)
+        w.field("true_meets_constraint",
+                constraint_met(a.spec.subject_to[f - 1], v.values[f].value) == 1);
     } else
       w.key("true").null().field("reason", v.values[f].reason);
     w.end_object();
@@ -217,9 +256,24 @@ void parse_args(const std::vector<std::string>& args, Args& a, bool* go) {
          "regenerate and simulate x* with the host (--host) and print the\n"
          "interpolated and the true objective and constraints side by side",
          &a.verify);
-  p.option("host", 0, "LIB.so", "--verify: the host library the asset was built with", &a.host);
-  p.option("model", 'm', "NAME", "--verify: the host's model", &a.model);
-  p.option("host-options", 0, "K=V,...", "--verify: the host's settings", &a.host_options);
+  p.option("grid", 0, "N",
+           "also evaluate the interpolant on a grid of N points per free\n"
+           "parameter (ends included) and print its best point that meets the\n"
+           "constraints: is x* the interpolant's global optimum?",
+           &a.grid, 2, 1000);
+  p.option("host-grid", 0, "N",
+           "also evaluate the host (--host) on a grid of N points per free\n"
+           "parameter and print its best point: is the optimum real?",
+           &a.host_grid, 2, 100);
+  p.option("threads", 'j', "N",
+           "--host-grid: host evaluations in parallel (0: all cores;\n"
+           "1 for a host that is not thread-safe)",
+           &a.threads, 0, 1024);
+  p.option("host", 0, "LIB.so", "--verify, --host-grid: the host library the asset was built with",
+           &a.host);
+  p.option("model", 'm', "NAME", "--verify, --host-grid: the host's model", &a.model);
+  p.option("host-options", 0, "K=V,...", "--verify, --host-grid: the host's settings",
+           &a.host_options);
   p.epilog(
       "expressions: sums of [WEIGHT*]QUANTITY with + and -. Quantities: volume, area,\n"
       "  mass[(density)], frontal_area[(dx,dy,dz)], centroid_x|y|z, inertia_xx..zz[(density)],\n"
@@ -239,8 +293,9 @@ void parse_args(const std::vector<std::string>& args, Args& a, bool* go) {
     if (!parse_double(v, &d)) throw UsageError("--start: '" + v + "' is not a number");
     a.spec.start.push_back(d);
   }
-  if (!a.verify && (!a.host.empty() || !a.model.empty() || !a.host_options.empty()))
-    throw UsageError("--host, --model and --host-options are for --verify");
+  const bool uses_host = a.verify || a.host_grid > 0;
+  if (!uses_host && (!a.host.empty() || !a.model.empty() || !a.host_options.empty()))
+    throw UsageError("--host, --model and --host-options are for --verify and --host-grid");
 }
 
 }  // namespace
@@ -255,11 +310,13 @@ int cmd_optimize(const std::vector<std::string>& args) {
   const std::vector<std::string> names = parameter_names(asset.get());
 #ifdef CADINTERP_CLI_HAVE_VERIFY
   tools::HostLibrary library;
-  const cadinterp_host* host = a.verify ? load_verify_host(a, asset.get(), library) : nullptr;
+  const cadinterp_host* host =
+      a.verify || a.host_grid ? load_verify_host(a, asset.get(), library) : nullptr;
 #else
-  if (a.verify)
+  if (a.verify || a.host_grid)
     throw RuntimeFailure(
-        "--verify needs the builder's host adapter, which this build of cadinterp does not have");
+        "--verify and --host-grid need the builder's host adapter, which this build of cadinterp "
+        "does not have");
 #endif
   ProblemPtr problem;
   try {
@@ -277,9 +334,25 @@ int cmd_optimize(const std::vector<std::string>& args) {
   const cadinterp_status s = cadinterp_optimize_solve(pr, &o, &r);
   if (s == CADINTERP_E_INVALID_ARGUMENT) throw UsageError(cadinterp_optimize_error(pr));
   if (s != CADINTERP_OK) throw RuntimeFailure(describe(s, cadinterp_optimize_error(pr)));
+  GridSummary grid, host_grid;
+  const ParameterBox box = problem_box(asset.get(), a.spec);
+  try {
+    if (a.grid) grid = run_grid(box, a.grid, a.spec, interpolant_function(pr), 1);
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+    if (a.host_grid) {
+      const int threads = !host->thread_safe ? 1
+                          : a.threads        ? a.threads
+                                      : static_cast<int>(std::thread::hardware_concurrency());
+      host_grid = run_grid(box, a.host_grid, a.spec, host_grid_function(*host, a.spec),
+                           std::max(1, threads));
+    }
+#endif
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string(a.grid ? "--grid: " : "--host-grid: ") + e.what());
+  }
 #ifdef CADINTERP_CLI_HAVE_VERIFY
   Verification v;
-  if (host) {
+  if (host && a.verify) {
     try {
       v = verify_with_host(*host, r.x, a.spec);
     } catch (const std::invalid_argument& e) {
@@ -294,15 +367,30 @@ int cmd_optimize(const std::vector<std::string>& args) {
     w.begin_object();
     write_result_members(w, a.spec, r, names);
 #ifdef CADINTERP_CLI_HAVE_VERIFY
-    if (host) write_verification(w, a, r, v);
+    if (host && a.verify) write_verification(w, a, r, v);
 #endif
+    if (a.grid) write_grid(w, "grid", grid, names);
+    if (a.host_grid) write_grid(w, "host_grid", host_grid, names);
     w.end_object();
     std::printf("%s\n", out.c_str());
   } else {
     print_text(a, r, names);
 #ifdef CADINTERP_CLI_HAVE_VERIFY
-    if (host) print_verification(a, r, v);
+    if (host && a.verify) print_verification(a, r, v);
 #endif
+    if (a.grid) print_grid("grid:", "the interpolant", grid, r.objective, "interpolated", names);
+    if (a.host_grid) {
+      // Against the host's grid, x*'s true value when --verify measured it.
+      double objective = r.objective;
+      const char* which = "interpolated; add --verify for the host's value";
+#ifdef CADINTERP_CLI_HAVE_VERIFY
+      if (a.verify && v.feasible && v.values[0].defined) {
+        objective = v.values[0].value;
+        which = "the host's";
+      }
+#endif
+      print_grid("host grid:", "the host", host_grid, objective, which, names);
+    }
   }
   return kExitOk;
 }

@@ -409,6 +409,36 @@ for e, g in zip(eps, f):
 PY
   run 0 verify_text -- optimize "$WORK/plate.cadi" --minimize "$OBJ" --fix thickness=8 -q "${VH[@]}" &&
     contains verify_text out "true (host)" && contains verify_text out "minimize integral(von_mises)"
+  # Brute-force grids: on the interpolant and on the host, against the plate's closed-form
+  # volume L * W * T (the host's grid is exact; the interpolant's within its accuracy).
+  run 0 inspect_plate -- inspect "$WORK/plate.cadi" --json &&
+    run 0 grid_opt -- optimize "$WORK/plate.cadi" --minimize volume --subject-to 'volume >= 20000' \
+      --fix thickness=8 --grid 9 --host-grid 3 -j 2 --json "${VH[@]}" &&
+    python3 - "$WORK" <<'PY' || fail "grid_opt: grids disagree with the closed form"
+import itertools, json, sys
+work = sys.argv[1]
+box = [(p["lower"], p["upper"]) for p in json.load(open(f"{work}/inspect_plate.out"))["parameters"]]
+d = json.load(open(f"{work}/grid_opt.out"))
+g, h = d["grid"], d["host_grid"]
+assert g["points"] == 81 and h["points"] == 9 and h["not_evaluated"] == 0, (g, h)
+def axis(lo, hi, n): return [lo + (hi - lo) * i / (n - 1) for i in range(n)]
+vols = [L * W * 8 for L, W in itertools.product(axis(*box[0], 3), axis(*box[1], 3))]
+best = min(v for v in vols if v >= 20000 * (1 - 1e-6))
+assert abs(h["best_values"][0] - best) <= 1e-5 * best, (h, best)
+assert h["violating"] == sum(v < 20000 * (1 - 1e-6) for v in vols), h
+assert h["best_x"]["thickness"] == 8 and g["best_x"]["thickness"] == 8, (g, h)
+assert g["found"] and g["best_values"][0] >= 20000 * (1 - 1e-6), g
+# Ipopt's x* on the interpolant is no worse than the interpolant's own 9 x 9 grid.
+assert d["objective"] <= g["best_values"][0] * (1 + 1e-4), (d["objective"], g)
+PY
+  run 0 grid_text -- optimize "$WORK/plate.cadi" --minimize volume --fix thickness=8 --grid 4 -q &&
+    contains grid_text out "the interpolant, 4 per free parameter: 16 points"
+  run 2 grid_one -- optimize "$WORK/plate.cadi" --minimize volume --grid 1 &&
+    contains grid_one err "--grid must be in [2, 1000]"
+  run 2 grid_huge -- optimize "$WORK/plate.cadi" --minimize volume --grid 1000 &&
+    contains grid_huge err "more than 1000000 points"
+  run 2 host_grid_no_host -- optimize "$WORK/plate.cadi" --minimize volume --host-grid 3 &&
+    contains host_grid_no_host err "--verify and --host-grid need --host"
   # Failures, each before the optimization runs.
   run 1 verify_bad_path -- optimize "$WORK/plate.cadi" --minimize volume --verify \
     --host "$WORK/no/such/libhost.so" && contains verify_bad_path err "CADINTERP_E_IO" &&
@@ -425,7 +455,7 @@ PY
       --host "$HOST_SO" --model foldplate &&
     contains verify_names err "the host has 4 parameters (length, width, thickness, fold), the asset 4 (length, height, thickness, bend_angle)"
   run 2 verify_no_host -- optimize "$WORK/plate.cadi" --minimize volume --verify &&
-    contains verify_no_host err "--verify needs --host"
+    contains verify_no_host err "--verify and --host-grid need --host"
   # A host that fails at x*: every true value is n/a with the host's reason.
   run 0 verify_fails -- optimize "$WORK/plate.cadi" --minimize volume --start 95,55,8 \
     --max-iterations 0 --json --verify --host "$HOST_SO" --model plate \

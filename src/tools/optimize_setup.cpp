@@ -1,7 +1,10 @@
 // The shared set-up of an optimization (optimize_setup.h) over libcadinterp_optimize's C ABI.
 #include "optimize_setup.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "cli_args.h"
 
@@ -14,9 +17,10 @@ int message_column(const char* message) {
   return std::sscanf(message, "column %d", &column) == 1 && column >= 1 ? column : 0;
 }
 
-// "name=value,...": each parameter's range becomes that value.
-void apply_fixes(cadinterp_optimize_problem* p, const std::string& spec,
-                 const std::vector<std::string>& names) {
+// "name=value,...": (parameter index, value) pairs, in the text's order.
+std::vector<std::pair<int, double>> parse_fixes(const std::string& spec,
+                                                const std::vector<std::string>& names) {
+  std::vector<std::pair<int, double>> out;
   for (const std::string& item : split_list(spec)) {
     const std::size_t eq = item.find('=');
     double v = 0;
@@ -31,9 +35,17 @@ void apply_fixes(cadinterp_optimize_problem* p, const std::string& spec,
       throw SpecError("--fix", spec,
                       "the asset has no parameter '" + name + "' (it has " + all + ")");
     }
+    out.emplace_back(i, v);
+  }
+  return out;
+}
+
+// Each fixed parameter's range becomes its value.
+void apply_fixes(cadinterp_optimize_problem* p, const std::string& spec,
+                 const std::vector<std::string>& names) {
+  for (const auto& [i, v] : parse_fixes(spec, names))
     if (cadinterp_optimize_set_bounds(p, i, v, v) != CADINTERP_OK)
       throw SpecError("--fix", spec, cadinterp_optimize_error(p));
-  }
 }
 
 }  // namespace
@@ -68,6 +80,37 @@ ProblemPtr make_problem(const cadinterp_asset* asset, const OptimizeSpec& spec) 
                     "the asset has " + std::to_string(names.size()) + " parameters, got " +
                         std::to_string(spec.start.size()) + " values");
   return problem;
+}
+
+ParameterBox problem_box(const cadinterp_asset* asset, const OptimizeSpec& spec) {
+  ParameterBox box;
+  for (int i = 0; i < cadinterp_parameter_count(asset); ++i) {
+    cadinterp_parameter_info p{};
+    cadinterp_parameter(asset, i, &p);
+    box.lower.push_back(p.lower);
+    box.upper.push_back(p.upper);
+  }
+  // make_problem has accepted the fixes (inside the box, known names): only narrow here.
+  for (const auto& [i, v] : parse_fixes(spec.fix, parameter_names(asset)))
+    box.lower[static_cast<std::size_t>(i)] = box.upper[static_cast<std::size_t>(i)] = v;
+  return box;
+}
+
+int constraint_met(const std::string& constraint, double value) {
+  for (const char* op : {"<=", ">=", "=="}) {
+    const std::size_t at = constraint.rfind(op);
+    double v = 0;
+    if (at == std::string::npos) continue;
+    std::string rhs = constraint.substr(at + 2);
+    rhs.erase(0, rhs.find_first_not_of(" \t"));
+    rhs.erase(rhs.find_last_not_of(" \t") + 1);
+    if (!parse_double(rhs, &v)) continue;
+    const double slack = 1e-6 * std::max(1.0, std::fabs(v));
+    if (op[0] == '<') return value <= v + slack;
+    if (op[0] == '>') return value >= v - slack;
+    return std::fabs(value - v) <= slack;
+  }
+  return -1;
 }
 
 cadinterp_optimize_options solve_options(const OptimizeSpec& spec) {

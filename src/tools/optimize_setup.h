@@ -48,6 +48,17 @@ std::vector<std::string> parameter_names(const cadinterp_asset* asset);
 /// fixed parameters. Throws SpecError for a bad expression, fix or start; std::bad_alloc.
 ProblemPtr make_problem(const cadinterp_asset* asset, const OptimizeSpec& spec);
 
+/// The box a solve of `spec` searches: the asset's parameter ranges, with each fixed parameter's
+/// range narrowed to its value. Call after make_problem accepted `spec` (it does not re-check).
+struct ParameterBox {
+  std::vector<double> lower, upper;
+};
+ParameterBox problem_box(const cadinterp_asset* asset, const OptimizeSpec& spec);
+
+/// Whether `value` meets the constraint text "EXPR <= V" (>=, ==: within 1e-6 relative to
+/// max(1, |V|)): 1 or 0; -1 when the text has no comparison with a number.
+int constraint_met(const std::string& constraint, double value);
+
 /// The solve options of `spec`; `start` points into spec.start (keep spec alive).
 cadinterp_optimize_options solve_options(const OptimizeSpec& spec);
 

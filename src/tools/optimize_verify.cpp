@@ -121,4 +121,24 @@ Verification verify_with_host(const cadinterp_host& host, const double* x,
   return v;
 }
 
+GridFunction host_grid_function(const cadinterp_host& host, const OptimizeSpec& spec) {
+  return [&host, &spec](const double* x) {
+    GridValue g;
+    const Verification v = verify_with_host(host, x, spec);
+    if (!v.feasible) {
+      g.reason = "the host failed: " + v.message;
+      return g;
+    }
+    for (const TrueValue& t : v.values) {
+      if (!t.defined) {
+        g.reason = t.reason;
+        return g;
+      }
+      g.values.push_back(t.value);
+    }
+    g.evaluated = true;
+    return g;
+  };
+}
+
 }  // namespace cadinterp::cli

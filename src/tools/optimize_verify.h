@@ -19,6 +19,7 @@
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "mesh/sample.h"
+#include "optimize_grid.h"
 #include "optimize_setup.h"
 
 namespace cadinterp::cli {
@@ -56,5 +57,11 @@ std::vector<TrueValue> values_on_sample(const mesh::Sample& s, const OptimizeSpe
 /// host's box.
 Verification verify_with_host(const cadinterp_host& host, const double* x,
                               const OptimizeSpec& spec);
+
+/// The host's true objective and constraints at a point (verify_with_host) as a grid function
+/// (optimize_grid.h): a host failure or a quantity the sample lacks is "not evaluated" with its
+/// reason. Thread-safe when the host is (cadinterp_host::thread_safe). `host` and `spec` must
+/// outlive the function.
+GridFunction host_grid_function(const cadinterp_host& host, const OptimizeSpec& spec);
 
 }  // namespace cadinterp::cli
