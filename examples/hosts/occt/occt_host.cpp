@@ -127,7 +127,7 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
   m.settings.force = m.def->default_force;
   m.settings.heat_flux = 0.02;
   std::stringstream ss(options);
-  std::string item, vary;
+  std::string item, vary, range;
   while (std::getline(ss, item, ',')) {
     if (item.empty()) continue;
     const auto eq = item.find('=');
@@ -154,11 +154,13 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
       m.mesh.min_angle = parse_number(key, value, 0, 30);
     else if (key == "vary")
       vary = value;
+    else if (key == "range")
+      range = value;
     else
       throw std::invalid_argument(
           "occt host: unknown option '" + key +
           "' (mesh_size, order, levels, keep_surface, quality, angle, min_angle, force, heat_flux, "
-          "vary)");
+          "vary, range)");
     if ((key == "order" || key == "levels" || key == "keep_surface") &&
         value.find_first_not_of("0123456789") != std::string::npos)
       throw std::invalid_argument("occt host: option " + key + " must be an integer");
@@ -168,9 +170,33 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
   std::vector<std::string> names;
   for (std::stringstream vs(vary); std::getline(vs, item, '+');)
     if (!item.empty()) names.push_back(item);
+  // range=name:lo:hi+...: a parameter's range narrowed inside the model's (e.g. to keep a cubic
+  // asset's B-spline supports clear of a region where the model cannot be built).
+  std::vector<double> lower, upper;
+  for (const ParameterDef& p : m.def->parameters) {
+    lower.push_back(p.lower);
+    upper.push_back(p.upper);
+  }
+  for (std::stringstream rs(range); std::getline(rs, item, '+');) {
+    if (item.empty()) continue;
+    const auto c1 = item.find(':'), c2 = item.rfind(':');
+    if (c1 == std::string::npos || c1 == c2)
+      throw std::invalid_argument("occt host: range wants name:lower:upper, got '" + item + "'");
+    const std::string n = item.substr(0, c1);
+    std::size_t i = 0;
+    while (i < m.def->parameters.size() && m.def->parameters[i].name != n) ++i;
+    if (i == m.def->parameters.size())
+      throw std::invalid_argument("occt host: range names an unknown parameter '" + n + "' of " +
+                                  m.def->name);
+    const ParameterDef& p = m.def->parameters[i];
+    lower[i] = parse_number("range " + n, item.substr(c1 + 1, c2 - c1 - 1), p.lower, p.upper);
+    upper[i] = parse_number("range " + n, item.substr(c2 + 1), p.lower, p.upper);
+    if (!(lower[i] < upper[i]))
+      throw std::invalid_argument("occt host: range of " + n + " is empty: '" + item + "'");
+  }
   for (std::size_t i = 0; i < m.def->parameters.size(); ++i) {
     const ParameterDef& p = m.def->parameters[i];
-    m.held.push_back(0.5 * (p.lower + p.upper));
+    m.held.push_back(0.5 * (lower[i] + upper[i]));
     if (names.empty() || std::find(names.begin(), names.end(), p.name) != names.end())
       m.varied.push_back(i);
   }
@@ -188,14 +214,15 @@ Model::Model(const std::string& model, const std::string& options) : impl_(new I
                ", quality=" + g(m.mesh.quality) + ", angle=" + g(m.mesh.angle) +
                ", min_angle=" + g(m.mesh.min_angle) + ", force=" + g(m.settings.force) +
                (m.def->name == "hub" ? ", heat_flux=" + g(m.settings.heat_flux) : "") +
-               (names.empty() ? std::string() : ", vary=" + vary) + ")" +
+               (names.empty() ? std::string() : ", vary=" + vary) +
+               (range.empty() ? std::string() : ", range=" + range) + ")" +
                // The fields' definition: v3 recovers the vertex stresses by L2 projection
                // (examples/physics); outputs v1 are brep_volume and max_von_mises. Stores of
                // other definitions are refused.
                " fields v3 (stress=l2-projection), outputs v1";
   for (std::size_t i : m.varied) {
     const ParameterDef& p = m.def->parameters[i];
-    m.params.push_back({p.name.c_str(), p.unit.c_str(), p.lower, p.upper});
+    m.params.push_back({p.name.c_str(), p.unit.c_str(), lower[i], upper[i]});
   }
   m.host.struct_size = sizeof(cadinterp_host);
   m.host.name = "occt";

@@ -404,6 +404,26 @@ TEST(OcctHost, OptionsAreChecked) {
   EXPECT_NE(m.identity().find("vary=load_angle"), std::string::npos);
 }
 
+TEST(OcctHost, RangeNarrowsAParameterInsideTheModelsBox) {
+  for (const char* bad : {"range=throat_fillet:5:50",   // beyond the model's 40
+                          "range=throat_fillet:30:10",  // empty
+                          "range=throat_fillet:5",      // no upper bound
+                          "range=colour:1:2"})
+    EXPECT_THROW(occt::Model("press", bad), std::invalid_argument) << bad;
+  occt::Model m("press", "range=throat_fillet:5:30+ram_bore:12:20,mesh_size=24");
+  ASSERT_EQ(m.parameter_count(), 5);
+  EXPECT_STREQ(m.parameters()[2].name, "throat_fillet");
+  EXPECT_EQ(m.parameters()[2].lower, 5);
+  EXPECT_EQ(m.parameters()[2].upper, 30);
+  EXPECT_EQ(m.parameters()[4].lower, 12);
+  EXPECT_EQ(m.parameters()[4].upper, 20);
+  EXPECT_EQ(m.parameters()[0].lower, 150);  // the others keep the model's range
+  EXPECT_NE(m.identity().find("range=throat_fillet:5:30+ram_bore:12:20"), std::string::npos);
+  // With vary=, a held parameter stays at the centre of its narrowed range.
+  occt::Model v("press", "vary=height,range=throat_fillet:5:30,mesh_size=24");
+  EXPECT_EQ(v.parameter_count(), 1);
+}
+
 TEST(OcctHost, LoadsActOnTheRightFaces) {
   if (!occt::Model::has_physics()) GTEST_SKIP() << "built without examples/physics";
   occt::Model model("wrench", coarse("wrench"));
