@@ -498,7 +498,12 @@ class AdaptiveDriver {
       ++res_.bound_unsplit;
       return -1;
     }
-    return separating_direction(node, eb, widest);
+    // A cubic element is refused for terms up to two of its widths away in every direction, so
+    // it sheds them fastest by shrinking in all directions in turn (widest first): on a 2-D host
+    // failing in a 16 % quarter disk, 600 samples refuse 1.6 % more than the disk that way and
+    // 3.9 % when split along the separating direction. Linear elements depend on their own box
+    // only, where the separating direction isolates the failure (4.4 % against 5.2 % at 120).
+    return opt_.degree == Degree::Cubic ? widest : separating_direction(node, eb, widest);
   }
 
   // Whether a term in the element's closed box (its corners, and the samples of finer
