@@ -4,7 +4,8 @@
 // host's cost (§4.2): host calls against kept samples and the measured error, per model. With
 // --infeasible, the feasible space kept (issue 27): on hosts failing in 16 % of their box
 // (fail_region=2), the part of the box the runtime refuses against the part where the host fails.
-//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --infeasible]
+//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --infeasible
+//                             [--model plate|bracket]]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -108,11 +109,12 @@ std::vector<char> refused_points(const std::string& path, const std::vector<doub
 // runtime refuses, the fraction where the host fails, the refused points the host regenerates
 // ("lost") and the points the runtime interpolates although the host fails there ("across"),
 // with the host evaluations of the build and those that failed.
-int infeasible_table(int points, const std::string& path) {
+int infeasible_table(int points, const std::string& only, const std::string& path) {
   std::printf(
       "model    deg  budget  bound  samples  refused %%  host fails %%  excess %%  lost %%  "
       "across %%  host evals  failed evals  wall s\n");
   for (const char* model : {"plate", "bracket"}) {
+    if (!only.empty() && only != model) continue;
     const std::string opts =
         std::strcmp(model, "bracket") ? "fail_region=2" : "cells=2,fail_region=2";
     const cadinterp_host* host = analytic_host(model, opts);
@@ -162,12 +164,14 @@ int infeasible_table(int points, const std::string& path) {
 int main(int argc, char** argv) {
   int points = 200;
   bool calls = false, infeasible = false;
-  std::string options = "cells=6";
+  std::string options = "cells=6", only_model;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
     else if (!std::strcmp(argv[i], "--infeasible"))
       infeasible = true;
+    else if (!std::strcmp(argv[i], "--model") && i + 1 < argc)
+      only_model = argv[++i];
     else if (!std::strcmp(argv[i], "--points") && i + 1 < argc)
       points = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--host-options") && i + 1 < argc)
@@ -177,7 +181,7 @@ int main(int argc, char** argv) {
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, path);
-  if (infeasible) return infeasible_table(points, path);
+  if (infeasible) return infeasible_table(points, only_model, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
         analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());
