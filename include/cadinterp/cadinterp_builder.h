@@ -331,6 +331,19 @@ typedef struct cadinterp_build_options {
    * builder's own work runs on its threads meanwhile. 0 (default): worker threads. The asset's
    * bytes are the same either way. */
   int host_on_calling_thread;
+  /** Bound on the points spent refining toward an infeasible region, as a fraction of
+   * max_samples (default 0.25; >= 0 and finite, or negative for no bound). An element that
+   * depends on a point where the host failed is split toward the feasibility boundary (along the
+   * direction separating its feasible from its infeasible samples), so that the runtime refuses
+   * little more than the region where the host truly fails; an element whose samples and centre
+   * all fail is never split (its children would keep a failing corner). Once
+   * ceil(infeasible_call_fraction x max_samples) points have failed, no element is split any
+   * more for being infeasible (elements above tolerance still are); the splits already decided
+   * still evaluate their points, so the failures can exceed the bound by one refinement wave's
+   * points. 0: infeasible elements are never split. Failures are counted by point (host or
+   * sample store alike), so a resumed build decides as the first did. Builds of hosts that
+   * never fail do not depend on it. */
+  double infeasible_call_fraction;
 } cadinterp_build_options;
 
 /** Fills `options` with the defaults above (struct_size included; other bytes zero). NULL is a
@@ -353,6 +366,9 @@ typedef struct cadinterp_build_report {
   double host_seconds;  /**< summed over host evaluations of this run */
   double wall_seconds;
   uint64_t asset_bytes;
+  /** Host evaluations of this run that failed (infeasible or non-finite); infeasible_points
+   * also counts failed points read from the sample store. */
+  int infeasible_host_evaluations;
 } cadinterp_build_report;
 
 /* ---- Building ------------------------------------------------------------------------------
@@ -441,6 +457,13 @@ typedef struct cadinterp_build_stages {
    * their canonical meshes in all. */
   int refined_elements;
   int refined_vertices;
+  /** Refinement toward infeasible regions (cadinterp_build_options::infeasible_call_fraction):
+   * elements split because they depend on a failed point; infeasible elements left unsplit
+   * because their samples and centre all fail (inside the region); and those left unsplit
+   * because the bound on failed points was reached. */
+  int infeasible_splits;
+  int interior_unsplit;
+  int bound_unsplit;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed (zeros before the first). Fills

@@ -5,6 +5,7 @@
 #include "builder/build.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <limits>
@@ -58,6 +59,10 @@ std::string options_json(const BuildOptions& o, const char* mapper_name) {
                     (o.neighbour_transfer == NeighbourTransfer::Always ? "always" : "direct") + "\""
               : std::string()) +
          (o.simulate_mapped ? ",\"simulate_mapped\":true" : "") +
+         // Likewise only a non-default bound on failed points.
+         (o.infeasible_call_fraction != BuildOptions{}.infeasible_call_fraction
+              ? ",\"infeasible_call_fraction\":\"" + hex_double(o.infeasible_call_fraction) + "\""
+              : std::string()) +
          ",\"canonical_refinement\":" + std::to_string(o.canonical_refinement) + "}";
 }
 
@@ -73,6 +78,8 @@ void check_options(const Host& host, const BuildOptions& opt) {
   if (opt.threads < 0) throw std::invalid_argument("build: threads must be >= 0");
   if (!(opt.position_max_abs_error >= 0))
     throw std::invalid_argument("build: position_max_abs_error must be >= 0");
+  if (!std::isfinite(opt.infeasible_call_fraction))
+    throw std::invalid_argument("build: infeasible_call_fraction must be finite");
   if (opt.simulate_mapped && !host.has_simulate())
     throw std::invalid_argument("build: simulate_mapped needs a host with a simulate callback");
 }
@@ -86,8 +93,16 @@ core::AdaptiveRun sample_adaptively(const Host& host, const BuildOptions& opt, M
   ao.tolerance = 1.0;  // errors are already relative to their targets
   ao.max_samples = opt.max_samples;
   ao.max_level = opt.max_depth;
+  ao.max_infeasible_points =
+      opt.infeasible_call_fraction < 0
+          ? -1
+          : static_cast<int>(std::ceil(opt.infeasible_call_fraction * opt.max_samples));
   const StageTimer refining(details.refinement_seconds, &details.sampling_seconds);
-  return core::adaptive_run(host.dim(), host.lower(), host.upper(), problem, ao);
+  core::AdaptiveRun run = core::adaptive_run(host.dim(), host.lower(), host.upper(), problem, ao);
+  details.infeasible_splits = run.infeasible_splits;
+  details.interior_unsplit = run.interior_unsplit;
+  details.bound_unsplit = run.bound_unsplit;
+  return run;
 }
 
 // Per basis sample: whether the host failed there (the compiled basis marks the elements that

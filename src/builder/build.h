@@ -90,6 +90,9 @@ struct BuildOptions {
   /// (mapping/canonical_refine.h) for an element whose mapped terms depart from their own
   /// boundary by more than 0.7 x geometry_tolerance (0: none).
   int canonical_refinement = 3;
+  /// cadinterp_build_options::infeasible_call_fraction: failed points allowed for the refinement
+  /// toward infeasible regions, as a fraction of max_samples (negative: no bound).
+  double infeasible_call_fraction = 0.25;
 };
 
 /// A point where the host failed, with its message.
@@ -136,6 +139,9 @@ struct BuildReport {
   /// canonical_refinement: elements whose canonical mesh was refined, and the vertices added
   /// to their canonical meshes in all.
   int refined_elements = 0, refined_vertices = 0;
+  /// The refinement toward infeasible regions (core::AdaptiveRun): elements split for depending
+  /// on a failed point, and infeasible elements left unsplit, inside the region or at the bound.
+  int infeasible_splits = 0, interior_unsplit = 0, bound_unsplit = 0;
   /// Wall time per stage (seconds). store: opening the sample store; sampling: the refinement's
   /// waves of sample points (store reads, host evaluations, store writes); refinement: the rest
   /// of the adaptive run (error tests, including the mapping they need); elements: canonical

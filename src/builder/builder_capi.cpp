@@ -4,6 +4,7 @@
 // untouched.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -315,6 +316,7 @@ CADINTERP_API void cadinterp_build_options_init(cadinterp_build_options* o) {
   o->max_samples = 256;
   o->max_depth = 8;
   o->canonical_refinement = 3;
+  o->infeasible_call_fraction = 0.25;
 }
 
 CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* host,
@@ -348,6 +350,9 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   bo.position_max_abs_error = o.position_max_abs_error;
   bo.simulate_mapped = o.simulate_mapped != 0;
   bo.canonical_refinement = o.canonical_refinement;
+  bo.infeasible_call_fraction = o.infeasible_call_fraction;
+  if (!std::isfinite(bo.infeasible_call_fraction))
+    throw std::invalid_argument("options: infeasible_call_fraction must be finite");
   if (bo.canonical_refinement < 0 || bo.canonical_refinement > 20)
     throw std::invalid_argument("options: canonical_refinement must be 0..20");
   if (!(bo.geometry_tolerance > 0) || !(bo.field_tolerance > 0))
@@ -458,6 +463,9 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.first_mapped_simulate_failure = d.first_mapped_simulate_failure.c_str();
   s.refined_elements = d.refined_elements;
   s.refined_vertices = d.refined_vertices;
+  s.infeasible_splits = d.infeasible_splits;
+  s.interior_unsplit = d.interior_unsplit;
+  s.bound_unsplit = d.bound_unsplit;
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

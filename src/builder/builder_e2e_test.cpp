@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <mutex>
 #include <set>
 #include <string>
@@ -485,6 +486,48 @@ TEST(EndToEnd, FailRegionBecomesInfeasibleAndTheRestIsAccurate) {
   EXPECT_GT(a.infeasible, 0);
   EXPECT_LT(a.infeasible, a.points);
   std::filesystem::remove(path);
+}
+
+// The refinement toward a failing region (cadinterp_build_options::infeasible_call_fraction):
+// split toward the boundary, bounded in failed points, counted in the report and the stages;
+// only a non-default bound is recorded in the provenance.
+TEST(EndToEnd, InfeasibleRefinementIsBoundedAndCounted) {
+  const cadinterp_host* h = host("bracket", "cells=1,fail_region=2");
+  ASSERT_NE(h, nullptr);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  EXPECT_EQ(o.infeasible_call_fraction, 0.25);
+  o.max_samples = 120;
+  o.threads = 2;
+  const std::string path = temp_path("infeasible.cadi");
+  const builder::BuildOutcome d = build(h, o, path);
+  ASSERT_EQ(d.status, CADINTERP_OK) << d.error;
+  EXPECT_GT(d.report.infeasible_host_evaluations, 0);
+  EXPECT_EQ(d.report.infeasible_host_evaluations, d.report.infeasible_points);  // no store
+  EXPECT_GT(d.stages.infeasible_splits, 0);
+
+  o.infeasible_call_fraction = 0.05;  // 6 failed points
+  const builder::BuildOutcome b = build(h, o, path);
+  ASSERT_EQ(b.status, CADINTERP_OK) << b.error;
+  EXPECT_GT(b.stages.bound_unsplit, 0);
+  // One wave's splits may still evaluate their points after the bound is reached.
+  EXPECT_LE(b.report.infeasible_host_evaluations, 6 + 16);
+  EXPECT_LT(b.report.infeasible_host_evaluations, d.report.infeasible_host_evaluations);
+
+  o.infeasible_call_fraction = 0;
+  const builder::BuildOutcome z = build(h, o, path);
+  ASSERT_EQ(z.status, CADINTERP_OK) << z.error;
+  EXPECT_EQ(z.stages.infeasible_splits, 0);
+
+  o.infeasible_call_fraction = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(build(h, o, path).status, CADINTERP_E_INVALID_ARGUMENT);
+  std::filesystem::remove(path);
+
+  builder::BuildOptions bo;
+  const char* mapper = builder::default_mapper().name();
+  EXPECT_EQ(builder::options_json(bo, mapper).find("infeasible_call_fraction"), std::string::npos);
+  bo.infeasible_call_fraction = -1;
+  EXPECT_NE(builder::options_json(bo, mapper).find("infeasible_call_fraction"), std::string::npos);
 }
 
 }  // namespace

@@ -32,6 +32,7 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
   const std::size_t K = static_cast<std::size_t>(host_.dim());
   std::vector<std::vector<double>> pending;
   std::vector<int> pending_rows;
+  std::vector<char> from_host(rows.size(), 0);  // per row of the wave: evaluated by the host
   for (std::size_t i = 0; i < rows.size(); ++i) {
     std::vector<double> xi(x.begin() + static_cast<std::ptrdiff_t>(i * K),
                            x.begin() + static_cast<std::ptrdiff_t>((i + 1) * K));
@@ -48,6 +49,7 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
     } else {
       pending.push_back(std::move(xi));
       pending_rows.push_back(rows[i]);
+      from_host[i] = 1;
     }
   }
   done_ += static_cast<int>(rows.size() - pending.size());  // store hits count as done
@@ -85,6 +87,7 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
     feasible[i] = s->feasible ? 1 : 0;
     if (!s->feasible) {
       ++report_.infeasible_points;
+      report_.infeasible_host_evaluations += from_host[i];
       count_reason(details_.infeasible_reasons, details_.other_infeasible_points, s->message,
                    points_[r]);
     }

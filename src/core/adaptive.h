@@ -48,9 +48,23 @@ struct AdaptiveOptions {
   /// others only for the elements that fail, whose split direction needs them. An element that
   /// passes then costs its centre alone, at the price of a test on fewer points.
   bool reuse_face_centres = false;
-  /// Split elements that depend on an infeasible sample (widest direction first), up to
-  /// max_level, so that the infeasible region is confined to small elements.
+  /// Refine toward the feasibility boundary (issue 27; the paper's locality: an element whose
+  /// own terms are all feasible is usable whatever its neighbours are). An element that depends
+  /// on an infeasible sample is split, up to max_level: linear along the direction that best
+  /// separates its feasible from its infeasible terms (the widest on a tie), so that its children
+  /// on the feasible side become usable; cubic along its widest direction (its terms reach
+  /// beyond its box in every direction, adaptive.cpp gives the measurement). An element lying
+  /// wholly inside the infeasible region (its centre and every sample in its closed box infeasible)
+  /// is not split: its children would keep an infeasible corner, so splitting buys nothing and
+  /// every new point fails.
   bool refine_infeasible = true;
+  /// Bounds the points that fail spent on that refinement: once this many evaluated points are
+  /// infeasible (every failure counts, whatever element asked for it), no element is split for
+  /// being infeasible any more; elements above tolerance still are. The points of splits already
+  /// decided are still evaluated, so the count can exceed the bound by the points of the last
+  /// wave's splits. Negative: no bound. Counted by point, not by host call, so that a resumed
+  /// build (points read from a store) decides exactly as the first.
+  int max_infeasible_points = -1;
 };
 
 struct AdaptiveResult {
@@ -61,6 +75,7 @@ struct AdaptiveResult {
   std::vector<bool> infeasible;    ///< per sample
   std::vector<double> leaf_error;  ///< per tree node: last centre error of a leaf (NaN if unknown)
   int host_calls = 0;              ///< distinct points at which the host was called
+  int infeasible_calls = 0;        ///< of which the host failed (or returned non-finite values)
   int splits = 0;
   bool budget_exhausted = false;  ///< stopped by max_samples with elements still above tolerance
 };
@@ -115,6 +130,11 @@ struct AdaptiveRun {
   std::vector<int> sample_row;     ///< per basis sample: its row
   std::vector<int> centre_row;     ///< per tree node: the row of its centre (-1 if never asked)
   std::vector<char> row_feasible;  ///< per row
+  int infeasible_rows = 0;         ///< rows whose point is infeasible
+  /// Splits of elements that depend on an infeasible sample (refine_infeasible), and of those,
+  /// the infeasible elements left unsplit because they lie wholly inside the infeasible region
+  /// or because max_infeasible_points was reached.
+  int infeasible_splits = 0, interior_unsplit = 0, bound_unsplit = 0;
   /// Per tree node: the last error measured on a leaf (centre and face centres), or for leaves
   /// the budget stopped before they were checked, the error at the centre alone; NaN where
   /// unknown (infeasible leaves).

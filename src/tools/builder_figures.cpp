@@ -1,17 +1,23 @@
 // The builder's figures for the closing notes (paper §7, Tables 1-2, ours) on the analytic
 // models: samples and time per model, accuracy at random points, adaptive against uniform
 // sample counts at equal error, and the speedup from 1 to 2 threads. With --calls, only the
-// host's cost (§4.2): host calls against kept samples and the measured error, per model.
-//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls]
+// host's cost (§4.2): host calls against kept samples and the measured error, per model. With
+// --infeasible, the feasible space kept (issue 27): on hosts failing in 16 % of their box
+// (fail_region=2), the part of the box the runtime refuses against the part where the host fails.
+//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --infeasible
+//                             [--model plate|bracket]]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "analytic_host.h"
 #include "builder/builder_e2e.h"
+#include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 
 namespace {
@@ -76,15 +82,96 @@ int host_calls_table(const std::string& bracket_options, int points, const std::
   return 0;
 }
 
+// Per point of `xs` (K values each): whether the asset at `path` refuses it (cadinterp_locate's
+// infeasible element).
+std::vector<char> refused_points(const std::string& path, const std::vector<double>& xs, int K) {
+  cadinterp_asset* asset = nullptr;
+  if (cadinterp_open(path.c_str(), &asset) != CADINTERP_OK) {
+    std::fprintf(stderr, "open %s: %s\n", path.c_str(), cadinterp_open_error());
+    std::exit(1);
+  }
+  std::vector<char> refused(xs.size() / static_cast<std::size_t>(K));
+  for (std::size_t i = 0; i < refused.size(); ++i) {
+    int element = -1, feasible = 0;
+    if (cadinterp_locate(asset, &xs[i * static_cast<std::size_t>(K)], &element, &feasible) !=
+        CADINTERP_OK) {
+      std::fprintf(stderr, "locate failed\n");
+      std::exit(1);
+    }
+    refused[i] = feasible ? 0 : 1;
+  }
+  cadinterp_close(asset);
+  return refused;
+}
+
+// The feasible space kept: per model, degree, budget and bound on failed points
+// (infeasible_call_fraction; "none" = no bound), the fraction of `points` random points the
+// runtime refuses, the fraction where the host fails, the refused points the host regenerates
+// ("lost") and the points the runtime interpolates although the host fails there ("across"),
+// with the host evaluations of the build and those that failed.
+int infeasible_table(int points, const std::string& only, const std::string& path) {
+  std::printf(
+      "model    deg  budget  bound  samples  refused %%  host fails %%  excess %%  lost %%  "
+      "across %%  host evals  failed evals  wall s\n");
+  for (const char* model : {"plate", "bracket"}) {
+    if (!only.empty() && only != model) continue;
+    const std::string opts =
+        std::strcmp(model, "bracket") ? "fail_region=2" : "cells=2,fail_region=2";
+    const cadinterp_host* host = analytic_host(model, opts);
+    if (!host) return 1;
+    const mesh::Host h(*host);
+    const int K = h.dim();
+    std::mt19937 rng(11);
+    std::vector<double> xs;
+    std::vector<char> fails;
+    for (int i = 0; i < points; ++i) {
+      for (int d = 0; d < K; ++d)
+        xs.push_back(std::uniform_real_distribution<double>(
+            h.lower()[static_cast<std::size_t>(d)], h.upper()[static_cast<std::size_t>(d)])(rng));
+      fails.push_back(h.evaluate(&xs[xs.size() - static_cast<std::size_t>(K)]).feasible ? 0 : 1);
+    }
+    for (int degree : {1, 3})
+      for (int budget : {120, 600})
+        for (double bound : {0.25, -1.0}) {
+          if (budget < 600 && bound < 0) continue;  // 120 samples never reach the bound
+          cadinterp_build_options o = figure_options();
+          o.degree = degree;
+          o.max_samples = budget;
+          o.infeasible_call_fraction = bound;
+          const Run r = build(host, o, path);
+          const std::vector<char> refused = refused_points(path, xs, K);
+          int n_refused = 0, n_fails = 0, lost = 0, across = 0;
+          for (std::size_t i = 0; i < refused.size(); ++i) {
+            n_refused += refused[i];
+            n_fails += fails[i];
+            lost += refused[i] && !fails[i];
+            across += !refused[i] && fails[i];
+          }
+          const double pc = 100.0 / points;
+          std::printf(
+              "%-8s %3d  %6d  %5s  %7d  %9.1f  %12.1f  %8.1f  %6.1f  %8.1f  %10d  %12d  %6.1f\n",
+              model, degree, budget, bound < 0 ? "none" : "0.25", r.report.samples, n_refused * pc,
+              n_fails * pc, (n_refused - n_fails) * pc, lost * pc, across * pc,
+              r.report.host_evaluations, r.report.infeasible_host_evaluations, r.seconds);
+        }
+  }
+  std::filesystem::remove(path);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int points = 200;
-  bool calls = false;
-  std::string options = "cells=6";
+  bool calls = false, infeasible = false;
+  std::string options = "cells=6", only_model;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
+    else if (!std::strcmp(argv[i], "--infeasible"))
+      infeasible = true;
+    else if (!std::strcmp(argv[i], "--model") && i + 1 < argc)
+      only_model = argv[++i];
     else if (!std::strcmp(argv[i], "--points") && i + 1 < argc)
       points = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--host-options") && i + 1 < argc)
@@ -94,6 +181,7 @@ int main(int argc, char** argv) {
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, path);
+  if (infeasible) return infeasible_table(points, only_model, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
         analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());

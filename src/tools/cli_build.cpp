@@ -168,6 +168,11 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            "rounds of canonical refinement where a mapped term departs\nfrom its own boundary "
            "(0: none)",
            &o.canonical_refinement, 0, 20);
+  p.option("infeasible-calls", 0, "FRAC",
+           "failed points allowed for refining toward the region where the\nhost fails, as a "
+           "fraction of --max-samples (negative: no bound;\n0: elements with a failed point "
+           "are never split)",
+           &o.infeasible_call_fraction, -1, 1e6);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
   // --mpi: the MPI block below.
@@ -236,6 +241,12 @@ void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_b
     std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
   std::fprintf(out, "  elements           %d (infeasible %d, of which unmapped %d)\n", r.elements,
                r.infeasible_elements, st.unmapped_elements);
+  if (r.infeasible_points > 0)
+    std::fprintf(out,
+                 "  infeasible region  %d failed host evaluations; %d splits toward the boundary, "
+                 "%d elements inside it left whole, %d left at the bound\n",
+                 r.infeasible_host_evaluations, st.infeasible_splits, st.interior_unsplit,
+                 st.bound_unsplit);
   if (simulate_mapped)
     std::fprintf(out,
                  "  simulate mapped    %d mapped terms simulated on their mapped mesh, %d "

@@ -40,7 +40,7 @@ extern "C" {
  * @param[in] options  "key=value" pairs separated by ','; NULL or "": defaults. Keys:
  *                     cells=N (bracket, 1..64), edge=MM (plate, foldplate, 0.5..100, up to 3
  *                     decimals),
- *                     levels=D (0..6 edge subdivision levels), fail_region=0|1;
+ *                     levels=D (0..6 edge subdivision levels), fail_region=0|1|2;
  *                     run-time only (not in the identity, results unchanged): sleep_ms=N
  *                     (sleep per regenerate), kill_after=N (the process's (N+1)th regenerate
  *                     kills the process with SIGKILL: a crashing kernel, for tests)
@@ -70,7 +70,7 @@ const char* analytic_model_identity(const analytic_model* model);
 int analytic_model_parameter_count(const analytic_model* model);
 /** K descriptors (static storage). */
 const cadinterp_parameter_desc* analytic_model_parameters(const analytic_model* model);
-/** Nonzero when x lies in the corner where fail_region=1 makes every callback fail. */
+/** Nonzero when x lies in the region where fail_region (1 or 2) makes every callback fail. */
 int analytic_model_in_fail_region(const analytic_model* model, const double* x);
 
 /** A tet mesh with tagged boundary triangles; arrays owned by the struct (malloc). */

@@ -540,6 +540,31 @@ TEST(AnalyticPlate, FieldsAreBeamTheory) {
   EXPECT_NEAR(vm, load * L * (T / 2) / inertia, 1e-9);
 }
 
+TEST(AnalyticHost, CurvedFailRegionCovers16PercentOfTheBox) {
+  ModelPtr failing = make_model("plate", "fail_region=2");
+  const int k = analytic_model_parameter_count(failing.get());
+  const cadinterp_parameter_desc* p = analytic_model_parameters(failing.get());
+  std::vector<double> x(static_cast<std::size_t>(k));
+  const int n = 200;
+  int inside = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      x[0] = p[0].lower + (i + 0.5) / n * (p[0].upper - p[0].lower);
+      x[1] = p[1].lower + (j + 0.5) / n * (p[1].upper - p[1].lower);
+      for (int d = 2; d < k; ++d) x[static_cast<std::size_t>(d)] = p[d].lower;
+      inside += analytic_model_in_fail_region(failing.get(), x.data());
+    }
+  EXPECT_NEAR(inside / double(n * n), 0.16, 0.002);
+  const char* message = nullptr;
+  Mesh mesh;
+  x[0] = p[0].upper;
+  x[1] = p[1].upper;
+  EXPECT_EQ(analytic_model_mesh(failing.get(), x.data(), &mesh.m, &message),
+            CADINTERP_E_INFEASIBLE);
+  ASSERT_NE(message, nullptr);
+  EXPECT_NE(std::string(message).find("fail_region=2"), std::string::npos);
+}
+
 TEST(AnalyticHost, FailRegionAndDomain) {
   for (const char* name : {"bracket", "plate"}) {
     SCOPED_TRACE(name);
@@ -615,7 +640,7 @@ TEST(AnalyticHost, Options) {
                                          {"plate", "edge=-5"},
                                          {"plate", "edge=5."},
                                          {"plate", "levels=7"},
-                                         {"plate", "fail_region=2"},
+                                         {"plate", "fail_region=3"},
                                          {"plate", "colour=red"}}) {
     const char* error = nullptr;
     analytic_model* m = analytic_model_create(bad.model, bad.options, &error);

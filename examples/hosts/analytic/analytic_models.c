@@ -100,8 +100,8 @@ static const char* parse_options(const char* options, analytic_model* m) {
       m->levels = (int)v;
       bit = 4;
     } else if (key_is(p, key_length, "fail_region")) {
-      if (!parse_int(value, value_length, &v) || v > 1)
-        return "analytic host: fail_region must be 0 or 1";
+      if (!parse_int(value, value_length, &v) || v > 2)
+        return "analytic host: fail_region must be 0, 1 or 2";
       m->fail_region = (int)v;
       bit = 8;
     } else if (key_is(p, key_length, "sleep_ms")) {
@@ -220,13 +220,16 @@ static int inside_box(const analytic_model* model, const double* x) {
 
 int analytic_model_in_fail_region(const analytic_model* model, const double* x) {
   const cadinterp_parameter_desc* p;
+  double u[2];
   int i;
   if (!model || !x || !model->fail_region) return 0;
   p = kClasses[model->kind].parameters;
-  /* The corner where the first two parameters are both in the top quarter of their range. */
-  for (i = 0; i < 2; ++i)
-    if (!((x[i] - p[i].lower) / (p[i].upper - p[i].lower) > 0.75)) return 0;
-  return 1;
+  for (i = 0; i < 2; ++i) u[i] = (x[i] - p[i].lower) / (p[i].upper - p[i].lower);
+  /* 1: the corner where the first two parameters are both in the top quarter of their range
+   * (1/16 of the box, bounded by dyadic planes). 2: a quarter disk of normalised radius
+   * sqrt(0.64 / pi) around that corner (16 % of the box, a curved boundary no split follows). */
+  if (model->fail_region == 1) return u[0] > 0.75 && u[1] > 0.75;
+  return (1 - u[0]) * (1 - u[0]) + (1 - u[1]) * (1 - u[1]) < 0.64 / 3.14159265358979323846;
 }
 
 static cadinterp_status check_x(const analytic_model* model, const double* x,
@@ -238,10 +241,16 @@ static cadinterp_status check_x(const analytic_model* model, const double* x,
   if (analytic_model_in_fail_region(model, x)) {
     if (message)
       *message = model->kind == ANALYTIC_BRACKET
-                     ? "analytic bracket: infeasible by request (fail_region=1: length and "
-                       "height both in the top quarter of their ranges)"
-                     : "analytic plate/foldplate: infeasible by request (fail_region=1: length "
-                       "and width both in the top quarter of their ranges)";
+                     ? (model->fail_region == 1
+                            ? "analytic bracket: infeasible by request (fail_region=1: length "
+                              "and height both in the top quarter of their ranges)"
+                            : "analytic bracket: infeasible by request (fail_region=2: length "
+                              "and height near the top of their ranges)")
+                     : (model->fail_region == 1
+                            ? "analytic plate/foldplate: infeasible by request (fail_region=1: "
+                              "length and width both in the top quarter of their ranges)"
+                            : "analytic plate/foldplate: infeasible by request (fail_region=2: "
+                              "length and width near the top of their ranges)");
     return CADINTERP_E_INFEASIBLE;
   }
   return CADINTERP_OK;
