@@ -2,7 +2,7 @@
 // models: samples and time per model, accuracy at random points, adaptive against uniform
 // sample counts at equal error, and the speedup from 1 to 2 threads. With --calls, only the
 // host's cost (§4.2): host calls against kept samples and the measured error, per model.
-//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls]
+//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls [--model NAME]]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -54,9 +54,12 @@ cadinterp_build_options figure_options() {
 
 // Host calls per kept sample and the error measured against the host (not the driver's own
 // estimate), one build per model at the figures' defaults.
-int host_calls_table(const std::string& bracket_options, int points, const std::string& path) {
+// `only`: one model's row (empty: all).
+int host_calls_table(const std::string& bracket_options, int points, const std::string& only,
+                     const std::string& path) {
   std::printf("model      samples  host calls  calls/sample  geometry max  field max  wall s\n");
   for (const char* model : {"bracket", "plate", "foldplate"}) {
+    if (!only.empty() && only != model) continue;
     const std::string opts = !std::strcmp(model, "bracket")     ? bracket_options
                              : !std::strcmp(model, "foldplate") ? "edge=10"
                                                                 : "";
@@ -82,6 +85,7 @@ int main(int argc, char** argv) {
   int points = 200;
   bool calls = false;
   std::string options = "cells=6";
+  std::string only;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
@@ -89,11 +93,13 @@ int main(int argc, char** argv) {
       points = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--host-options") && i + 1 < argc)
       options = argv[++i];
+    else if (!std::strcmp(argv[i], "--model") && i + 1 < argc)
+      only = argv[++i];
   }
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
-  if (calls) return host_calls_table(options, points, path);
+  if (calls) return host_calls_table(options, points, only, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
         analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());
