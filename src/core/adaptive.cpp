@@ -419,6 +419,7 @@ class AdaptiveDriver {
       index.push_back(l);
       at.push_back(std::move(faces));
     }
+    if (passing.empty()) return;
     rows_.ensure(batch);
     const std::vector<double> more = max_errors(passing, at);
     for (std::size_t i = 0; i < passing.size(); ++i)
