@@ -1,6 +1,7 @@
 #include "core/adaptive.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -331,17 +332,103 @@ class AdaptiveDriver {
       if (rows_.feasible(centre_of(node, K_)) && terms_feasible(basis_.element_basis(leaf)))
         face_centres(node, pts);
     }
-    if (opt_.check_face_centres && !opt_.reuse_face_centres) rows_.ensure(pts);
+    if (opt_.check_face_centres && !opt_.reuse_face_centres && !opt_.lazy_face_centres)
+      rows_.ensure(pts);
   }
 
-  // The face centres an element's test uses: all of them, or with reuse_face_centres those the
-  // host has answered already (for a neighbour, for the parent's split decision, or as samples).
+  // The face centres an element's test uses first: all of them, or with reuse_face_centres
+  // and lazy_face_centres those the host has answered already (for a neighbour, for the
+  // parent's split decision, or as samples).
   void test_faces(const KdTree::Node& node, std::vector<IPoint>& out) const {
     if (!opt_.check_face_centres) return;
     std::vector<IPoint> faces;
     face_centres(node, faces);
     for (const IPoint& p : faces)
-      if (!opt_.reuse_face_centres || rows_.find(p) >= 0) out.push_back(p);
+      if (!(opt_.reuse_face_centres || opt_.lazy_face_centres) || rows_.find(p) >= 0)
+        out.push_back(p);
+  }
+
+  // lazy_face_centres: the face centres the host has not answered yet. An element that passes
+  // at its centre and at the answered ones is kept only if it passes at these too.
+  void missing_faces(const KdTree::Node& node, std::vector<IPoint>& out) const {
+    if (!opt_.check_face_centres || !opt_.lazy_face_centres) return;
+    std::vector<IPoint> faces;
+    face_centres(node, faces);
+    for (const IPoint& p : faces)
+      if (rows_.find(p) < 0) out.push_back(p);
+  }
+
+  // Per tree node and direction (lazy_face_centres): the midpoint error measured on the node or
+  // inherited from an ancestor, and how many splits ago it was measured.
+  struct DirectionEstimate {
+    double error = std::numeric_limits<double>::quiet_NaN();  // NaN: unknown
+    int age = 0;
+  };
+  DirectionEstimate& estimate(int node, int d) {
+    if (static_cast<int>(estimates_.size()) <= node)
+      estimates_.resize(static_cast<std::size_t>(tree_.node_count()));
+    return estimates_[static_cast<std::size_t>(node)][static_cast<std::size_t>(d)];
+  }
+
+  // Whether the split-direction test along d asks the host: always, unless lazy_face_centres
+  // finds a pair of answered points (answered_pair) or a young enough estimate.
+  bool probes_direction(int leaf, const KdTree::Node& node, int d) {
+    if (!opt_.lazy_face_centres) return true;
+    Query q;
+    double scale = 0;
+    if (answered_pair(node, d, q, scale)) return false;
+    const DirectionEstimate& e = estimate(leaf, d);
+    return std::isnan(e.error) || e.age > opt_.inherited_direction_splits;
+  }
+
+  // The largest error of each of `leaves` at its feasible points at[l] (none: 0), asked for
+  // together (problem.errors may answer them in parallel) and memoised for check_leaf.
+  std::vector<double> max_errors(const std::vector<int>& leaves,
+                                 const std::vector<std::vector<IPoint>>& at) {
+    std::vector<Query> qs;
+    std::vector<std::size_t> first;  // per leaf: its first query
+    for (std::size_t l = 0; l < leaves.size(); ++l) {
+      const int crow = rows_.row(centre_of(tree_.node(leaves[l]), K_));
+      const ElementBasis eb = basis_.element_basis(leaves[l]);
+      first.push_back(qs.size());
+      for (const IPoint& p : at[l]) {
+        bool pok = false;
+        const int prow = rows_.row(p, &pok);
+        if (pok) qs.push_back(error_query(eb, crow, p, prow));
+      }
+    }
+    first.push_back(qs.size());
+    std::vector<double> out;
+    problem_.errors(qs, out);
+    std::vector<double> err(leaves.size(), 0.0);
+    for (std::size_t l = 0; l < leaves.size(); ++l)
+      for (std::size_t i = first[l]; i < first[l + 1]; ++i) err[l] = std::max(err[l], out[i]);
+    for (std::size_t i = 0; i < qs.size(); ++i) memo_.emplace(std::move(qs[i]), out[i]);
+    return err;
+  }
+
+  // lazy_face_centres: the leaves that passed at their centre and answered face centres are
+  // tested at their other face centres, evaluated in one batch; err is updated.
+  void test_missing_faces(const std::vector<int>& leaves, std::vector<double>& err) {
+    std::vector<int> passing;
+    std::vector<std::size_t> index;
+    std::vector<std::vector<IPoint>> at;
+    std::vector<IPoint> batch;
+    for (std::size_t l = 0; l < leaves.size(); ++l) {
+      if (!(err[l] <= opt_.tolerance)) continue;
+      std::vector<IPoint> faces;
+      missing_faces(tree_.node(leaves[l]), faces);
+      if (faces.empty()) continue;
+      batch.insert(batch.end(), faces.begin(), faces.end());
+      passing.push_back(leaves[l]);
+      index.push_back(l);
+      at.push_back(std::move(faces));
+    }
+    if (passing.empty()) return;
+    rows_.ensure(batch);
+    const std::vector<double> more = max_errors(passing, at);
+    for (std::size_t i = 0; i < passing.size(); ++i)
+      err[index[i]] = std::max(err[index[i]], more[i]);
   }
 
   // The wave's errors (§4.2's error at the element centre, and optionally at its face centres),
@@ -351,56 +438,88 @@ class AdaptiveDriver {
   // terms or weights.
   void ask_wave_errors(const std::vector<int>& wave) {
     memo_.clear();
-    std::vector<Query> qs;
-    std::vector<std::pair<int, double>> above;  // leaf, its largest error
-    std::vector<std::size_t> first;             // per feasible leaf: its first query
     std::vector<int> leaves;
+    std::vector<std::vector<IPoint>> at;
     for (int leaf : wave) {
       const KdTree::Node& node = tree_.node(leaf);
       const IPoint c = centre_of(node, K_);
-      bool ok = false;
-      const int crow = rows_.row(c, &ok);
-      const ElementBasis eb = basis_.element_basis(leaf);
-      if (!ok || !terms_feasible(eb)) continue;
-      std::vector<IPoint> at{c};
-      test_faces(node, at);
-      first.push_back(qs.size());
+      if (!rows_.feasible(c) || !terms_feasible(basis_.element_basis(leaf))) continue;
       leaves.push_back(leaf);
-      for (const IPoint& p : at) {
-        bool pok = false;
-        const int prow = rows_.row(p, &pok);
-        if (pok) qs.push_back(error_query(eb, crow, p, prow));
-      }
+      at.push_back({c});
+      test_faces(node, at.back());
     }
-    first.push_back(qs.size());
-    std::vector<double> out;
-    problem_.errors(qs, out);
-    std::vector<IPoint> split_faces;  // the split direction's test needs every face centre
-    for (std::size_t l = 0; l < leaves.size(); ++l) {
-      double err = 0;
-      for (std::size_t i = first[l]; i < first[l + 1]; ++i) err = std::max(err, out[i]);
-      if (err > opt_.tolerance) above.emplace_back(leaves[l], err);
-    }
-    // The split directions' tests (below) need the face centres of every splittable direction,
-    // evaluated here in one batch and in the order the tests ask for them.
-    for (const auto& [leaf, err] : above) {
+    std::vector<double> err = max_errors(leaves, at);
+    const std::size_t reach = budget_reach(err);
+    leaves.resize(reach);
+    err.resize(reach);
+    test_missing_faces(leaves, err);
+    std::vector<int> above;
+    for (std::size_t l = 0; l < leaves.size(); ++l)
+      if (err[l] > opt_.tolerance) above.push_back(leaves[l]);
+    // The split directions' tests (below) need the face centres of every splittable direction
+    // they probe, evaluated here in one batch and in the order the tests ask for them.
+    std::vector<IPoint> split_faces;
+    for (int leaf : above) {
       const KdTree::Node& node = tree_.node(leaf);
       std::vector<IPoint> faces;
       face_centres(node, faces);
       for (int d = 0; d < K_; ++d)
-        if (node.level[d] < opt_.max_level)
+        if (node.level[d] < opt_.max_level && probes_direction(leaf, node, d))
           split_faces.insert(split_faces.end(), faces.begin() + 2 * d, faces.begin() + 2 * d + 2);
     }
     rows_.ensure(split_faces);
-    for (std::size_t i = 0; i < qs.size(); ++i) memo_.emplace(std::move(qs[i]), out[i]);
-    qs.clear();
-    for (const auto& [leaf, err] : above) {
+    std::vector<Query> qs;
+    for (int leaf : above) {
       const KdTree::Node& node = tree_.node(leaf);
       Query q;
+      double scale = 0;
       for (int d = 0; d < K_; ++d)
-        if (node.level[d] < opt_.max_level && midpoint_query(node, d, q)) qs.push_back(q);
+        if (node.level[d] < opt_.max_level && answered_pair(node, d, q, scale) && scale > 0)
+          qs.push_back(q);
     }
     solve(qs);
+  }
+
+  // lazy_face_centres: how many of the wave's tested leaves (errors err, in check_leaf's order)
+  // the remaining sample budget can reach: up to and including the one whose split would spend
+  // it at the samples per split so far. Probing beyond would buy points the run never uses;
+  // check_leaf evaluates them one by one should it get there.
+  std::size_t budget_reach(const std::vector<double>& err) const {
+    if (!opt_.lazy_face_centres) return err.size();
+    const double per_split =
+        adaptive_splits_ > 0 ? std::max(1.0, double(added_samples_) / adaptive_splits_) : 1.0;
+    const double splits = std::ceil((opt_.max_samples - basis_.sample_count()) / per_split);
+    std::size_t failing = 0;
+    for (std::size_t l = 0; l < err.size(); ++l)
+      if (err[l] > opt_.tolerance && static_cast<double>(++failing) >= splits) return l + 1;
+    return err.size();
+  }
+
+  // The midpoint test along d on points the host has answered already: the element's two face
+  // centres (scale 1), else with lazy_face_centres the two points 2 or 3 half-widths from its
+  // centre (the centres of same-size neighbours, their far face centres), whose midpoint error
+  // is the element's times 4 or 9 on a smooth function (it grows with the distance squared):
+  // scale is 1/4 or 1/9. False when no such pair is answered, or (past scale 1) feasible.
+  bool answered_pair(const KdTree::Node& node, int d, Query& q, double& scale) {
+    const IPoint c = centre_of(node, K_);
+    const Coord half = (node.box.hi[d] - node.box.lo[d]) / 2;
+    for (int j = 1; j <= (opt_.lazy_face_centres ? 3 : 1); ++j) {
+      IPoint a = c, b = c;
+      a[d] -= j * half;
+      b[d] += j * half;
+      const int ra = rows_.find(a), rb = rows_.find(b);
+      if (ra < 0 || rb < 0) continue;
+      const bool ok = rows_.feasible_rows()[static_cast<std::size_t>(ra)] &&
+                      rows_.feasible_rows()[static_cast<std::size_t>(rb)];
+      if (j > 1 && !ok) continue;
+      q = Query{};
+      q.midpoint = true;
+      q.at = rows_.row(c);
+      q.terms = {ra, rb};
+      scale = ok ? 1.0 / (j * j) : -1.0;
+      return true;
+    }
+    return false;
   }
 
   // The splittable direction with the lowest level; -1 when every direction is at max_level.
@@ -413,35 +532,59 @@ class AdaptiveDriver {
   }
 
   // The refinement test of §4.2: the error at the element's centre, and with check_face_centres
-  // the largest over its face centres too; infinite where a face centre is infeasible.
+  // the largest over its face centres too; infinite where a face centre is infeasible. With
+  // lazy_face_centres an element that fails before its unanswered face centres is not tested
+  // at them: it is split either way.
   double element_error(const KdTree::Node& node, const ElementBasis& eb, const IPoint& c,
                        int crow) {
     double err = answer(error_query(eb, crow, c, crow));
-    if (opt_.check_face_centres) {
-      std::vector<IPoint> faces;
-      test_faces(node, faces);
-      for (const IPoint& p : faces) {
-        if (!std::isfinite(err)) break;
-        bool ok = false;
-        const int prow = rows_.row(p, &ok);
-        err = ok ? std::max(err, answer(error_query(eb, crow, p, prow)))
-                 : std::numeric_limits<double>::infinity();
-      }
+    std::vector<IPoint> faces;
+    test_faces(node, faces);
+    err = max_face_error(eb, crow, faces, err);
+    if (err <= opt_.tolerance) {
+      faces.clear();
+      missing_faces(node, faces);
+      err = max_face_error(eb, crow, faces, err);
+    }
+    return err;
+  }
+
+  // The largest of err and the errors at `faces` (evaluated if needed); infinite where a face
+  // centre is infeasible.
+  double max_face_error(const ElementBasis& eb, int crow, const std::vector<IPoint>& faces,
+                        double err) {
+    for (const IPoint& p : faces) {
+      if (!std::isfinite(err)) break;
+      bool ok = false;
+      const int prow = rows_.row(p, &ok);
+      err = ok ? std::max(err, answer(error_query(eb, crow, p, prow)))
+               : std::numeric_limits<double>::infinity();
     }
     return err;
   }
 
   // The split direction of §4.2: the direction whose midpoint test errs most. Ties go to the
   // coarser direction, then to the lower index; `widest` where the metric returns NaN
-  // everywhere.
-  int split_direction(const KdTree::Node& node, int widest) {
+  // everywhere. With lazy_face_centres a direction that needs no probe uses its estimate unless
+  // the host has answered both its face centres; the errors are kept for the children.
+  int split_direction(int leaf, const KdTree::Node& node, int widest) {
     int dir = -1;
     double best = -1.0;
     for (int d = 0; d < K_; ++d) {
       if (node.level[d] >= opt_.max_level) continue;
       Query q;
-      const double e =
-          midpoint_query(node, d, q) ? answer(q) : std::numeric_limits<double>::infinity();
+      double scale = 0;
+      double e = std::numeric_limits<double>::infinity();
+      bool measured = true;
+      if (answered_pair(node, d, q, scale)) {
+        if (scale > 0) e = scale * answer(q);
+      } else if (!probes_direction(leaf, node, d)) {
+        e = estimate(leaf, d).error;
+        measured = false;
+      } else if (midpoint_query(node, d, q)) {
+        e = answer(q);
+      }
+      if (opt_.lazy_face_centres && measured && std::isfinite(e)) estimate(leaf, d) = {e, 0};
       if (e > best || (e == best && dir >= 0 && node.level[d] < node.level[dir])) {
         best = e;
         dir = d;
@@ -472,7 +615,7 @@ class AdaptiveDriver {
         dir = infeasible_split(node, eb, centre_ok, widest);
     } else {
       err = element_error(node, eb, c, crow);
-      if (err > opt_.tolerance && widest >= 0) dir = split_direction(node, widest);
+      if (err > opt_.tolerance && widest >= 0) dir = split_direction(leaf, node, widest);
     }
     res_.leaf_error[static_cast<std::size_t>(leaf)] = err;
     if (dir < 0) return true;
@@ -554,6 +697,8 @@ class AdaptiveDriver {
     tree_.leaves_touching(node.box, affected);
     const std::vector<int> added = basis_.refine(leaf, dir);
     ++res_.splits;
+    ++adaptive_splits_;
+    added_samples_ += static_cast<long>(added.size());
     {
       std::vector<IPoint> pts;
       for (int k : added) pts.push_back(basis_.sample(k));
@@ -566,6 +711,7 @@ class AdaptiveDriver {
       affected.insert(affected.end(), ring.begin(), ring.end());
     }
     const int kid0 = tree_.node(leaf).child[0], kid1 = tree_.node(leaf).child[1];
+    if (opt_.lazy_face_centres) inherit_direction_errors(leaf, dir, kid0, kid1);
     push(kid0);
     push(kid1);
     for (int n : affected)
@@ -573,6 +719,20 @@ class AdaptiveDriver {
     res_.leaf_error.resize(static_cast<std::size_t>(tree_.node_count()),
                            std::numeric_limits<double>::quiet_NaN());
     res_.centre_row.resize(static_cast<std::size_t>(tree_.node_count()), -1);
+  }
+
+  // lazy_face_centres: the children have the parent's width in every direction but dir, so
+  // they start from its direction errors; along dir the midpoint error of a smooth function
+  // shrinks with the width squared. The children's own face centres replace these estimates
+  // once the host has answered them.
+  void inherit_direction_errors(int parent, int dir, int kid0, int kid1) {
+    for (int d = 0; d < K_; ++d) {
+      DirectionEstimate e = estimate(parent, d);
+      if (d == dir) e.error *= 0.25;
+      ++e.age;
+      estimate(kid0, d) = e;
+      estimate(kid1, d) = e;
+    }
   }
 
   // Every leaf gets a centre row (its canonical mesh is the host at its centre, §4.2), also the
@@ -614,7 +774,10 @@ class AdaptiveDriver {
   PointRows rows_;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue_;
   std::vector<char> queued_;
-  std::map<Query, double> memo_;  // the current wave's answers
+  std::map<Query, double> memo_;                                   // the current wave's answers
+  std::vector<std::array<DirectionEstimate, kMaxDim>> estimates_;  // per tree node
+  int adaptive_splits_ = 0;  // splits after the initial refinement
+  long added_samples_ = 0;   // the samples they added
 };
 
 }  // namespace

@@ -48,7 +48,22 @@ struct AdaptiveOptions {
   /// others only for the elements that fail, whose split direction needs them. An element that
   /// passes then costs its centre alone, at the price of a test on fewer points.
   bool reuse_face_centres = false;
-  /// Refine toward the feasibility boundary (issue 27; the paper's locality: an element whose
+  /// With check_face_centres: the same test on fewer host calls, for budget-bound runs. An
+  /// element is tested at its centre and at the face centres the host has answered already;
+  /// only if it passes there are its other face centres evaluated (it is kept only if it passes
+  /// at all of them, as without this option). An element that fails is split along the
+  /// direction of largest midpoint error, taken from answered points on the line through its
+  /// centre (its face centres; else the centres of same-size neighbours or their far faces,
+  /// scaled by the distance squared), else from its parent's (the same width in every direction
+  /// but the split one, whose error a split divides by 4 on a smooth function); a direction
+  /// with neither is probed at its face centres. Probes stop at the element the remaining budget
+  /// is expected to reach. Off by default: on tolerance-bound runs the estimated directions
+  /// cost more samples and a larger max error (src/core/README.md).
+  bool lazy_face_centres = false;
+  /// With lazy_face_centres: how many splits an inherited direction error is trusted for; an
+  /// older one is measured again at the element's face centres.
+  int inherited_direction_splits = 2;
+  /// Refine toward the feasibility boundary (the paper's locality: an element whose
   /// own terms are all feasible is usable whatever its neighbours are). An element that depends
   /// on an infeasible sample is split, up to max_level: linear along the direction that best
   /// separates its feasible from its infeasible terms (the widest on a tie), so that its children

@@ -205,5 +205,59 @@ TEST(Adaptive, ReusedFaceCentresCostFewerCallsAtTheSameAccuracy) {
   EXPECT_LE(max_error(reused, f, lo, hi, 20000), 1.05 * max_error(all, f, lo, hi, 20000));
 }
 
+// lazy_face_centres on a budget-bound 4-D run (every element fails its test, as in the builder's
+// figures): the split directions come from answered points and inherited errors instead of 2K
+// new face centres per split, and the probes stop where the budget does. Fewer calls, the same
+// measured accuracy; and the run stays deterministic.
+TEST(Adaptive, LazyFaceCentresCostFewerCallsOnABudget) {
+  const HostFunction f = [](const double* x, double* v) {
+    double r2 = 0.0;
+    for (int d = 0; d < 4; ++d) r2 += (x[d] - 0.35) * (x[d] - 0.35);
+    v[0] = std::exp(-6.0 * r2) + 0.3 * std::tanh(8.0 * (x[0] + 0.5 * x[1] - 0.7)) + 0.2 * x[3];
+    return true;
+  };
+  const std::vector<double> lo(4, 0.0), hi(4, 1.0);
+  AdaptiveOptions opt;
+  opt.tolerance = 1e-9;
+  opt.max_samples = 400;
+  opt.lazy_face_centres = false;
+  const AdaptiveResult all = adaptive_sample(4, 1, lo, hi, f, opt);
+  opt.lazy_face_centres = true;
+  const AdaptiveResult lazy = adaptive_sample(4, 1, lo, hi, f, opt);
+  const AdaptiveResult again = adaptive_sample(4, 1, lo, hi, f, opt);
+  ASSERT_TRUE(all.budget_exhausted);
+  ASSERT_TRUE(lazy.budget_exhausted);
+  EXPECT_LT(lazy.host_calls, 2 * lazy.basis.sample_count());
+  EXPECT_LT(lazy.host_calls, all.host_calls * 7 / 10);
+  EXPECT_LE(max_error(lazy, f, lo, hi, 20000), 1.05 * max_error(all, f, lo, hi, 20000));
+  EXPECT_EQ(again.host_calls, lazy.host_calls);
+  EXPECT_EQ(again.values, lazy.values);
+}
+
+// lazy_face_centres keeps the test: an element is kept only once it passed at its centre and
+// at all 2K face centres, so every kept leaf's face centres were evaluated.
+TEST(Adaptive, LazyFaceCentresTestEveryKeptElementAtAllFaceCentres) {
+  std::set<std::pair<double, double>> asked;
+  const HostFunction f = [&](const double* x, double* v) {
+    asked.insert({x[0], x[1]});
+    v[0] = std::exp(-40.0 * ((x[0] - 0.6) * (x[0] - 0.6) + (x[1] - 0.3) * (x[1] - 0.3)));
+    return true;
+  };
+  AdaptiveOptions opt;
+  opt.tolerance = 1e-2;
+  opt.lazy_face_centres = true;
+  const AdaptiveResult r = adaptive_sample(2, 1, {0.0, 0.0}, {1.0, 1.0}, f, opt);
+  ASSERT_FALSE(r.budget_exhausted);
+  for (int leaf : r.basis.tree().leaves()) {
+    const IBox& b = r.basis.tree().node(leaf).box;
+    const double cx = to_unit((b.lo[0] + b.hi[0]) / 2), cy = to_unit((b.lo[1] + b.hi[1]) / 2);
+    for (const auto& p :
+         {std::make_pair(to_unit(b.lo[0]), cy), std::make_pair(to_unit(b.hi[0]), cy),
+          std::make_pair(cx, to_unit(b.lo[1])), std::make_pair(cx, to_unit(b.hi[1]))})
+      EXPECT_TRUE(asked.count(p)) << "leaf " << leaf;
+    EXPECT_LE(r.leaf_error[static_cast<std::size_t>(leaf)], opt.tolerance);
+  }
+}
+
 }  // namespace
 }  // namespace cadinterp::core

@@ -2,10 +2,10 @@
 // models: samples and time per model, accuracy at random points, adaptive against uniform
 // sample counts at equal error, and the speedup from 1 to 2 threads. With --calls, only the
 // host's cost (§4.2): host calls against kept samples and the measured error, per model. With
-// --infeasible, the feasible space kept (issue 27): on hosts failing in 16 % of their box
-// (fail_region=2), the part of the box the runtime refuses against the part where the host fails.
-//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --infeasible
-//                             [--model plate|bracket]]
+// --infeasible, the feasible space kept: on hosts failing in 16 % of their box (fail_region=2),
+// the part of the box the runtime refuses against the part where the host fails.
+//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --infeasible]
+//                             [--model NAME]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -60,9 +60,12 @@ cadinterp_build_options figure_options() {
 
 // Host calls per kept sample and the error measured against the host (not the driver's own
 // estimate), one build per model at the figures' defaults.
-int host_calls_table(const std::string& bracket_options, int points, const std::string& path) {
+// `only`: one model's row (empty: all).
+int host_calls_table(const std::string& bracket_options, int points, const std::string& only,
+                     const std::string& path) {
   std::printf("model      samples  host calls  calls/sample  geometry max  field max  wall s\n");
   for (const char* model : {"bracket", "plate", "foldplate"}) {
+    if (!only.empty() && only != model) continue;
     const std::string opts = !std::strcmp(model, "bracket")     ? bracket_options
                              : !std::strcmp(model, "foldplate") ? "edge=10"
                                                                 : "";
@@ -180,7 +183,7 @@ int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
-  if (calls) return host_calls_table(options, points, path);
+  if (calls) return host_calls_table(options, points, only_model, path);
   if (infeasible) return infeasible_table(points, only_model, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
