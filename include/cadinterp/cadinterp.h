@@ -348,7 +348,7 @@ CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a
  * shaped as multilinear interpolation errs, sum_d e_d 4 t_d (1 - t_d) at x's place t in the
  * element, zero at the samples; on cubic assets the largest measured error, constant over the
  * element. Calibrated on held-out random points of analytic hosts to bound the true error at
- * about 90 % of points (src/tools/README.md, "Error estimates", gives the measured coverage and
+ * about 90 % of points (docs/error-estimates.md gives the measured coverage and
  * the median ratio to the true error per model). It does not include the float storage error
  * (cadinterp_field's max_abs_error) or the truth's own discretization error.
  * Assets without the builder's error model (written before format 1.3) report every entry as

@@ -179,26 +179,26 @@ TEST(ErrorEstimates, AssetsWithoutAModelOpenAndReportUnknown) {
   EXPECT_EQ(e, syn.content.elements[static_cast<std::size_t>(element)].error_estimate);
 }
 
-// Calibration on a host whose truth is a closed form: at 200 random points, the estimate bounds
-// the true error (geometry by the Hausdorff distance to the host's mesh, fields against the
-// closed form at the evaluated vertices) at >= 90 % of the points, and is within 3x of it at
-// the median.
+// Calibration against a host whose truth is a closed form: at 200 random points (other points
+// than the calibration's), the estimate bounds the true error (geometry: the Hausdorff distance
+// to the host's mesh at x; fields: against the host's closed-form values on its mesh at x, the
+// comparison the builder's own measurements make) at >= 90 % of the points, and the fields'
+// estimates are within 3x of it at the median. (The geometry's true error is float rounding
+// on this model, whose boundary the interpolation reproduces, so its ratio is not bounded.)
 TEST(ErrorEstimates, BoundTheTrueErrorAtMostPoints) {
   const cadinterp_host* h = analytic("plate", "edge=8");
   ASSERT_NE(h, nullptr);
-  const analytic_model* model = analytic_host_model(h);
   const std::string path = build(h, "plate_calibration.cadi", 120, 1);
   const mesh::Host host(*h);
-  const builder::AccuracyReport r = builder::measure_accuracy(
-      path, host, 200, 3, [model](int f, const double* x, const double* p, double* v) {
-        return analytic_model_field_at(model, f, x, p, v) == CADINTERP_OK;
-      });
+  const builder::AccuracyReport r = builder::measure_accuracy(path, host, 200, 3);
   ASSERT_EQ(r.estimate_points.size(), 1 + r.field_names.size());
   for (std::size_t q = 0; q < r.estimate_points.size(); ++q) {
     const std::string name = q ? r.field_names[q - 1] : "geometry";
-    std::printf("[ figures ] %s: bounded at %.1f %% of %d points, median estimate / error %.2f\n",
-                name.c_str(), 100 * r.estimate_coverage[q], r.estimate_points[q],
-                r.estimate_median_ratio[q]);
+    std::printf(
+        "[ figures ] %s: bounded at %.1f %% of %d points, estimate / error: median %.2f, 10th "
+        "percentile %.2f\n",
+        name.c_str(), 100 * r.estimate_coverage[q], r.estimate_points[q],
+        r.estimate_median_ratio[q], r.estimate_p10_ratio[q]);
     EXPECT_GE(r.estimate_points[q], 190) << name;
     EXPECT_GE(r.estimate_coverage[q], 0.9) << name;
     if (q) {

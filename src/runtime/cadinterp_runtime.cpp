@@ -285,7 +285,9 @@ void estimates_at(const cadinterp_asset* a, int e, const double* x, double* out,
   for (int q = 0; q < count; ++q) {
     const double est = cadinterp::format::error_model_estimate(
         model->data() + static_cast<std::size_t>(q) * static_cast<std::size_t>(K + 1), K, cubic, t);
-    out[q] = est < 0 ? -1.0 : est * cadinterp::format::kErrorModelSafety;
+    out[q] = est < 0 ? -1.0
+                     : est * (cubic ? cadinterp::format::kErrorModelSafetyCubic
+                                    : cadinterp::format::kErrorModelSafetyLinear);
   }
   if (out[0] >= 0) out[0] = std::max(out[0], cadinterp::format::kGeometryFloor);
 }
