@@ -59,15 +59,22 @@ AssetPtr open(const std::string& path) {
   return AssetPtr(a);
 }
 
+// `model` (host options `options`) built linear with `samples` samples into a temporary file
+// (its path in `path`), opened; null after a failure was reported.
+AssetPtr build_and_open(const char* model, const char* options, int samples, std::string& path) {
+  const cadinterp_host* h = analytic(model, options);
+  if (!h) return nullptr;
+  path = build(h, std::string(model) + ".cadi", samples, 1);
+  return open(path);
+}
+
 // The plate (K = 3, three per-vertex fields with closed forms) at a small budget: the estimate
 // has one entry per quantity, the geometry's is cadinterp_error_estimate's, and geometry and
 // fields are measured apart (the plate's geometry is multilinear in its parameters, so
 // interpolation reproduces it up to the mapping, while its fields are not).
 TEST(ErrorEstimates, GeometryAndFieldsSeparatelyPerPoint) {
-  const cadinterp_host* h = analytic("plate", "edge=8");
-  ASSERT_NE(h, nullptr);
-  const std::string path = build(h, "plate.cadi", 40, 1);
-  const AssetPtr a = open(path);
+  std::string path;
+  const AssetPtr a = build_and_open("plate", "edge=8", 40, path);
   ASSERT_TRUE(a);
   const int fields = cadinterp_field_count(a.get());
   ASSERT_GT(fields, 0);
@@ -97,10 +104,8 @@ TEST(ErrorEstimates, GeometryAndFieldsSeparatelyPerPoint) {
 }
 
 TEST(ErrorEstimates, ArgumentsDomainAndInfeasibleElements) {
-  const cadinterp_host* h = analytic("bracket", "cells=1,fail_region=1");
-  ASSERT_NE(h, nullptr);
-  const std::string path = build(h, "bracket_fail.cadi", 60, 1);
-  const AssetPtr a = open(path);
+  std::string path;
+  const AssetPtr a = build_and_open("bracket", "cells=1,fail_region=1", 60, path);
   ASSERT_TRUE(a);
   const int want = 1 + cadinterp_field_count(a.get());
   std::vector<double> out(static_cast<std::size_t>(want), -5);
