@@ -5,7 +5,8 @@
 // --estimates, the calibration of cadinterp_error_estimates per model and degree: on two
 // disjoint sets of random points (seeds 7 and 11), per quantity, the fraction of points where
 // the estimate bounds the error measured against the host and the median estimate / error.
-//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --estimates]
+//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --estimates
+//                             [--model NAME]]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -101,11 +102,13 @@ void print_estimates(const char* model, int degree, const builder::AccuracyRepor
 
 // The calibration of the per-point error estimates (cadinterp_error_estimates) against the
 // host at random points, per model and degree, at the figures' defaults.
-int estimates_table(const std::string& bracket_options, int points, const std::string& path) {
+int estimates_table(const std::string& bracket_options, int points, const std::string& only,
+                    const std::string& path) {
   std::printf(
       "model      degree  quantity     set A:  n  bounded  med ratio  p10 ratio  set B:  n  "
       "bounded  med ratio  p10 ratio\n");
   for (const Model& m : table_models(bracket_options)) {
+    if (!only.empty() && only != m.name) continue;
     const cadinterp_host* host = analytic_host(m.name, m.options);
     if (!host) return 1;
     const mesh::Host h(*host);
@@ -126,12 +129,15 @@ int estimates_table(const std::string& bracket_options, int points, const std::s
 int main(int argc, char** argv) {
   int points = 200;
   bool calls = false, estimates = false;
+  std::string only;  // --estimates: this model alone
   std::string options = "cells=6";
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
     else if (!std::strcmp(argv[i], "--estimates"))
       estimates = true;
+    else if (!std::strcmp(argv[i], "--model") && i + 1 < argc)
+      only = argv[++i];
     else if (!std::strcmp(argv[i], "--points") && i + 1 < argc)
       points = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--host-options") && i + 1 < argc)
@@ -141,7 +147,7 @@ int main(int argc, char** argv) {
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, path);
-  if (estimates) return estimates_table(options, points, path);
+  if (estimates) return estimates_table(options, points, only, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
         analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());
