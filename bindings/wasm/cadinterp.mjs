@@ -369,7 +369,8 @@ class Asset {
     return { element: this.#mod.HEAP32[pe >> 2], feasible: this.#mod.HEAP32[(pe >> 2) + 1] !== 0 };
   }
 
-  /** The builder's error estimate of the element holding x (negative: not measured). */
+  /** The estimated geometric error at x, relative to the bbox diagonal (negative: not measured;
+   *  throws CadinterpError INFEASIBLE in an infeasible element). cadinterp_error_estimate. */
   errorEstimate(x) {
     const px = this.#putX(x, 'errorEstimate');
     const pd = this.#scratch + S_MISC + 8;

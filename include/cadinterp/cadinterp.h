@@ -320,12 +320,52 @@ CADINTERP_API cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset
                                                            uint32_t* tet_count,
                                                            uint32_t* triangle_count);
 
-/** The builder's error estimate of the element holding x (relative to the model's bounding-box
- *  diagonal; negative if the builder did not measure it). CADINTERP_E_OUTSIDE_DOMAIN as
- *  cadinterp_locate, CADINTERP_E_INVALID_ARGUMENT for a NULL argument; `*error` untouched on
- *  failure. Thread-safety: safe. */
+/**
+ * The estimated geometric error at x: the symmetric Hausdorff distance between the boundary
+ * surface cadinterp_eval returns and the host's own at x, relative to the bounding-box diagonal
+ * of the host's mesh at x. It is cadinterp_error_estimates' out[0]; see there for how it is
+ * estimated and how well it bounds the true error. Assets written before format 1.3 (or
+ * without the builder's error model) answer the builder's stored value of the element holding
+ * x instead: the largest refinement error measured on it times the geometry tolerance, which
+ * on assets with fields was the field error rescaled, not a geometric error.
+ * @param[in]  x      K parameter values
+ * @param[out] error  the estimate; negative if the builder did not measure it
+ * @return CADINTERP_OK; CADINTERP_E_OUTSIDE_DOMAIN as cadinterp_locate; CADINTERP_E_INFEASIBLE
+ *         if x lies in an infeasible element (no mesh to be wrong about);
+ *         CADINTERP_E_INVALID_ARGUMENT for a NULL argument. `*error` untouched on failure.
+ *         Thread-safety: safe (reads the immutable index).
+ */
 CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* asset,
                                                         const double* x, double* error);
+
+/**
+ * Estimated errors of cadinterp_eval at x, per quantity, against the host's own answer at x:
+ * out[0] geometry (symmetric Hausdorff distance of the boundary surfaces relative to the
+ * bounding-box diagonal of the host's mesh at x), out[1 + f] field f (largest absolute error
+ * of a value relative to the range of field f over the host's mesh at x), in field order.
+ * Estimated from the errors the builder measured on the element holding x (at its centre and,
+ * per direction, at its face centres; fileformat/SPEC.md "Error model"): on linear assets
+ * shaped as multilinear interpolation errs, sum_d e_d 4 t_d (1 - t_d) at x's place t in the
+ * element, zero at the samples; on cubic assets the largest measured error, constant over the
+ * element. Calibrated on held-out random points of analytic hosts to bound the true error at
+ * about 90 % of points (docs/error-estimates.md gives the measured coverage and
+ * the median ratio to the true error per model). It does not include the float storage error
+ * (cadinterp_field's max_abs_error) or the truth's own discretization error.
+ * Assets without the builder's error model (written before format 1.3) report every entry as
+ * -1 (unknown).
+ * @param[in]  x         K parameter values
+ * @param[out] out       capacity doubles; entries: the estimate, or -1 where not measured
+ * @param[in]  capacity  number of doubles out can hold; must be >= 1 + cadinterp_field_count
+ * @param[out] count     1 + cadinterp_field_count(asset), set whenever asset and count are
+ *                       non-NULL, even on failure (so a first call with capacity 0 sizes out)
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT for a NULL asset, x or count, out NULL with
+ *         capacity > 0, or capacity < *count; CADINTERP_E_OUTSIDE_DOMAIN as cadinterp_locate;
+ *         CADINTERP_E_INFEASIBLE if x lies in an infeasible element. `out` untouched on
+ *         failure. Thread-safety: safe (reads the immutable index).
+ */
+CADINTERP_API cadinterp_status cadinterp_error_estimates(const cadinterp_asset* asset,
+                                                         const double* x, double* out, int capacity,
+                                                         int* count);
 
 /** Number of parameter points where the builder's host failed (0 if asset is NULL). */
 CADINTERP_API int cadinterp_infeasible_point_count(const cadinterp_asset* asset);

@@ -155,9 +155,51 @@ class AccuracyRun {
       against_located_truth(truth, m);
     else
       against_same_mesh(truth, m);
+    note_estimates(x);
+  }
+
+  // The asset's own error estimates at x next to the errors just measured (the point's last
+  // geometry value and per-field maxima), per quantity.
+  void note_estimates(const std::vector<double>& x) {
+    int count = 0;
+    cadinterp_error_estimates(asset_.get(), x.data(), nullptr, 0, &count);
+    std::vector<double> est(static_cast<std::size_t>(count));
+    if (cadinterp_error_estimates(asset_.get(), x.data(), est.data(), count, &count) !=
+        CADINTERP_OK)
+      return;
+    estimates_.resize(1 + fields_.size());
+    if (est[0] >= 0) estimates_[0].push_back({est[0], geo_.back()});
+    for (std::size_t k = 0; k < fields_.size(); ++k) {
+      const double e = est[1 + static_cast<std::size_t>(fields_[k])];
+      if (e >= 0) estimates_[1 + k].push_back({e, point_field_[k]});
+    }
+  }
+
+  // estimate_* of the report from the (estimate, true error) pairs of each quantity.
+  void finish_estimates() {
+    for (const auto& pairs : estimates_) {
+      int covered = 0;
+      std::vector<double> ratios;
+      for (const auto& [est, truth] : pairs) {
+        covered += est >= truth ? 1 : 0;
+        if (truth > 1e-12) ratios.push_back(est / truth);
+      }
+      double median = 0, p10 = 0;
+      if (!ratios.empty()) {
+        std::sort(ratios.begin(), ratios.end());
+        median = ratios[ratios.size() / 2];
+        p10 = ratios[ratios.size() / 10];
+      }
+      r_.estimate_p10_ratio.push_back(p10);
+      r_.estimate_points.push_back(static_cast<int>(pairs.size()));
+      r_.estimate_coverage.push_back(
+          pairs.empty() ? 0.0 : double(covered) / static_cast<double>(pairs.size()));
+      r_.estimate_median_ratio.push_back(median);
+    }
   }
 
   AccuracyReport finish() {
+    if (!estimates_.empty() && !estimates_[0].empty()) finish_estimates();
     for (std::size_t k = 0; k < fields_.size(); ++k) {
       const std::vector<double>& f = by_field_[k];
       r_.field_max_by_field.push_back(f.empty() ? 0.0 : *std::max_element(f.begin(), f.end()));
@@ -303,6 +345,8 @@ class AccuracyRun {
   std::vector<std::vector<double>> own_pooled_;
   std::vector<double> own_max_;
   Sample evaluated_;
+  // Per quantity (geometry, then fields_), per compared point: (estimate, true error).
+  std::vector<std::vector<std::pair<double, double>>> estimates_;
 };
 
 }  // namespace

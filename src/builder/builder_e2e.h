@@ -35,6 +35,17 @@ struct AccuracyReport {
   int evaluated_mesh_points = 0, evaluated_mesh_refused = 0;
   std::string evaluated_mesh_first_refusal;
   std::vector<double> evaluated_mesh_max_by_field, evaluated_mesh_vertex_p99_by_field;
+  /// Calibration of cadinterp_error_estimates against the errors measured above, per quantity
+  /// (geometry, then the compared fields in field_names order), over the compared points where
+  /// the asset has an estimate: how many (estimate_points), the fraction where the estimate is
+  /// at least the true error (estimate_coverage), and the median of estimate / true error over
+  /// the points with a true error above 1e-12 (estimate_median_ratio). Empty for assets
+  /// without the builder's error model.
+  std::vector<int> estimate_points;
+  std::vector<double> estimate_coverage, estimate_median_ratio;
+  /// The 10th percentile of estimate / true error (same points as the median): the safety
+  /// factor 1 / p10 makes the estimate bound the error at 90 % of these points.
+  std::vector<double> estimate_p10_ratio;
 };
 
 /// Outcome of one build through the C ABI (create, run, report, destroy).

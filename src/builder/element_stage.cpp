@@ -8,10 +8,12 @@
 #include <cstdio>
 #include <iterator>
 #include <limits>
+#include <map>
 #include <memory>
 #include <string>
 
 #include "builder/stage_report.h"
+#include "format/error_model.h"
 #include "mapping/canonical_refine.h"
 #include "mapping/interior_solve.h"
 #include "mapping/neighbour_transfer.h"
@@ -98,6 +100,7 @@ class ElementStage {
   // its own tally), so they are built in parallel; the canonical refinement inside one runs on
   // the same thread count, since a refined element can take far longer than the others.
   const Sample* run() {
+    for (int r = 0; r < problem_.rows(); ++r) rows_by_point_.emplace(problem_.point(r), r);
     std::vector<ElementTally> tallies(leaves_.size());
     mapping::parallel_for(tallies.size(), exec_.concurrency(),
                           [&](std::size_t e) { build_element(e, tallies[e]); });
@@ -120,6 +123,10 @@ class ElementStage {
   int shared_sample(int leaf, int nb, int k) const;
   bool carry(int k, int s, int nrow, int crow, MappedSample& res, NeighbourTransferStats& st);
   void compare_routes(int row, int crow, const MappedSample* viab, NeighbourTransferStats& st);
+  void measure_error_model(std::size_t e, int leaf, int crow, format::ElementData& ed);
+  bool measure_at(std::size_t e, int at, int crow, const std::vector<double>& x,
+                  std::vector<double>& q);
+  int feasible_row(const std::vector<double>& x) const;
 
   const BuildOptions& opt_;
   Executor& exec_;
@@ -135,6 +142,7 @@ class ElementStage {
   std::vector<std::uint8_t>& element_ok_;
   const int K_;
   const bool cubic_;
+  std::map<std::vector<double>, int> rows_by_point_;  // the rows' x, exactly as evaluated
 };
 
 // Element e (leaves_[e]): its terms, the canonical refinement where they depart from their own
@@ -142,8 +150,7 @@ class ElementStage {
 void ElementStage::build_element(std::size_t e, ElementTally& tally) {
   format::ElementData& ed = tally.ed;
   const int leaf = leaves_[e];
-  const double err = run_.leaf_error[static_cast<std::size_t>(leaf)];
-  ed.error_estimate = std::isfinite(err) ? err * opt_.geometry_tolerance : -1.0;
+  ed.error_estimate = -1.0;  // measured below once the element is built
   const int crow = run_.centre_row[static_cast<std::size_t>(leaf)];
   int n = 0;
   const int* terms = cb_.element_samples(static_cast<int>(e), &n);
@@ -172,6 +179,81 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
                                                        : bridged[static_cast<std::size_t>(t)].get();
   write_element(ed, canon, crow, terms, n, carried);
   tally.stored_meshes = n;
+  measure_error_model(e, leaf, crow, ed);
+}
+
+// The row whose x is exactly `x` (computed as the driver computes grid points) if the host
+// answered there feasibly, else -1.
+int ElementStage::feasible_row(const std::vector<double>& x) const {
+  const auto it = rows_by_point_.find(x);
+  return it != rows_by_point_.end() && problem_.sample(it->second).feasible ? it->second : -1;
+}
+
+// The element's interpolant at x (row `at`) against the host there, per quantity.
+bool ElementStage::measure_at(std::size_t e, int at, int crow, const std::vector<double>& x,
+                              std::vector<double>& q) {
+  core::EvalWorkspace ws = cb_.make_workspace();
+  core::BasisWeights w;
+  cb_.eval_element(static_cast<int>(e), x.data(), ws, false, &w);
+  std::vector<int> rows(static_cast<std::size_t>(w.count));
+  for (int t = 0; t < w.count; ++t)
+    rows[static_cast<std::size_t>(t)] = run_.sample_row[static_cast<std::size_t>(w.samples[t])];
+  return problem_.quantity_errors(at, crow, rows.data(), w.psi, w.count, opt_.geometry_tolerance,
+                                  q);
+}
+
+// The element's error model (format/error_model.h), measured against rows the driver already
+// evaluated (no host call): per quantity, the error of the element's interpolant at its centre,
+// and per direction d the midpoint error along d (linear) or the larger interpolant error at
+// the two face centres along d (cubic). -1 where a face centre was never evaluated (the budget
+// stopped the driver first, or reuse_face_centres skipped it) or cannot be mapped. The element's
+// error_estimate is the model's largest geometry estimate.
+void ElementStage::measure_error_model(std::size_t e, int leaf, int crow, format::ElementData& ed) {
+  const auto& node = tree_.node(leaf);
+  const std::vector<double>& lo = cb_.lower();
+  const std::vector<double>& hi = cb_.upper();
+  auto real = [&](const core::IPoint& p) {
+    std::vector<double> x(static_cast<std::size_t>(K_));
+    for (int d = 0; d < K_; ++d)
+      x[static_cast<std::size_t>(d)] =
+          lo[static_cast<std::size_t>(d)] +
+          (hi[static_cast<std::size_t>(d)] - lo[static_cast<std::size_t>(d)]) *
+              core::to_unit(p[static_cast<std::size_t>(d)]);
+    return x;
+  };
+  core::IPoint c{};
+  for (int d = 0; d < K_; ++d) c[d] = node.box.lo[d] + (node.box.hi[d] - node.box.lo[d]) / 2;
+  const std::size_t Q = 1 + problem_.sample(crow).fields.size(),
+                    W = static_cast<std::size_t>(K_ + 1);
+  ed.error_model.assign(Q * W, -1.0);
+  std::vector<double> q;
+  if (!measure_at(e, crow, crow, real(c), q)) return;
+  for (std::size_t i = 0; i < Q; ++i) ed.error_model[i * W] = q[i];
+  for (int d = 0; d < K_; ++d) {
+    int face[2];
+    std::vector<double> fx[2];
+    for (int side = 0; side < 2; ++side) {
+      core::IPoint p = c;
+      p[d] = side ? node.box.hi[d] : node.box.lo[d];
+      fx[side] = real(p);
+      face[side] = feasible_row(fx[side]);
+    }
+    std::vector<double> worst(Q, -1.0);
+    bool known = true;
+    if (!cubic_) {
+      const double psi[2] = {0.5, 0.5};
+      known = face[0] >= 0 && face[1] >= 0 &&
+              problem_.quantity_errors(crow, crow, face, psi, 2, opt_.geometry_tolerance, q);
+      if (known) worst = q;
+    }
+    for (int side = 0; cubic_ && known && side < 2; ++side) {
+      known = face[side] >= 0 && measure_at(e, face[side], crow, fx[side], q);
+      for (std::size_t i = 0; known && i < Q; ++i) worst[i] = std::max(worst[i], q[i]);
+    }
+    for (std::size_t i = 0; known && i < Q; ++i)
+      ed.error_model[i * W + 1 + static_cast<std::size_t>(d)] = worst[i];
+  }
+  ed.error_estimate = format::error_model_max(ed.error_model.data(), K_, cubic_);
 }
 
 // Adds element e's tally to the build's report and result (in element order, on one thread).

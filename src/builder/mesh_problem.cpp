@@ -97,8 +97,8 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
   report_progress(0);
 }
 
-double MeshProblem::interpolation_error(int at, int centre, const int* terms, const double* psi,
-                                        int n) {
+bool MeshProblem::quantity_errors(int at, int centre, const int* terms, const double* psi, int n,
+                                  double geometry_cutoff, std::vector<double>& out) {
   const Sample& canon = sample(centre);
   const std::size_t nv3 = canon.vertices.size();
   std::vector<double> V(nv3, 0.0);
@@ -107,18 +107,19 @@ double MeshProblem::interpolation_error(int at, int centre, const int* terms, co
   for (std::size_t f = 0; f < nfields; ++f) F[f].assign(canon.fields[f].values.size(), 0.0);
   View m;
   for (int t = 0; t < n; ++t) {
-    if (!view(terms[t], centre, m)) return std::numeric_limits<double>::infinity();
+    if (!view(terms[t], centre, m)) return false;
     for (std::size_t i = 0; i < nv3; ++i) V[i] += psi[t] * m.vertices[i];
     for (std::size_t f = 0; f < nfields; ++f)
       for (std::size_t i = 0; i < F[f].size(); ++i) F[f][i] += psi[t] * m.fields[f][i];
   }
   const Sample& truth = sample(at);
-  const double target = truth.bbox_diagonal() * opt_.geometry_tolerance;
-  double err = -1;
+  const double diagonal = truth.bbox_diagonal();
+  out.assign(1 + nfields, 0.0);
+  out[0] = -1;
   if (classes_[static_cast<std::size_t>(at)] == classes_[static_cast<std::size_t>(centre)]) {
     // Same mesh: the largest vertex displacement bounds the Hausdorff distance from above
     // (corresponding triangles are within it everywhere), and settles most tests in O(V);
-    // only above the target is the exact distance worth its cost.
+    // only above the cutoff is the exact distance worth its cost.
     double d2 = 0;
     for (std::size_t i = 0; i < nv3; i += 3) {
       double q = 0;
@@ -126,14 +127,14 @@ double MeshProblem::interpolation_error(int at, int centre, const int* terms, co
         q += (V[i + c] - truth.vertices[i + c]) * (V[i + c] - truth.vertices[i + c]);
       d2 = std::max(d2, q);
     }
-    if (std::sqrt(d2) <= target) err = std::sqrt(d2) / target;
+    if (std::sqrt(d2) <= geometry_cutoff * diagonal) out[0] = std::sqrt(d2) / diagonal;
   }
-  if (err < 0)
-    err = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles,
-                              hausdorff_threads_) /
-          target;
+  if (out[0] < 0)
+    out[0] = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles,
+                                 hausdorff_threads_) /
+             diagonal;
   if (nfields) {
-    if (!view(at, centre, m)) return std::numeric_limits<double>::infinity();
+    if (!view(at, centre, m)) return false;
     for (std::size_t f = 0; f < nfields; ++f) {
       const std::vector<double>& tv = truth.fields[f].values;
       const auto mm = std::minmax_element(tv.begin(), tv.end());
@@ -143,9 +144,20 @@ double MeshProblem::interpolation_error(int at, int centre, const int* terms, co
       double e = 0;
       for (std::size_t i = 0; i < F[f].size(); ++i)
         e = std::max(e, std::abs(F[f][i] - m.fields[f][i]));
-      err = std::max(err, e / (range * opt_.field_tolerance));
+      out[1 + f] = e / range;
     }
   }
+  return true;
+}
+
+double MeshProblem::interpolation_error(int at, int centre, const int* terms, const double* psi,
+                                        int n) {
+  std::vector<double> q;
+  if (!quantity_errors(at, centre, terms, psi, n, opt_.geometry_tolerance, q))
+    return std::numeric_limits<double>::infinity();
+  double err = q[0] / opt_.geometry_tolerance;
+  for (std::size_t f = 1; f < q.size(); ++f) err = std::max(err, q[f] / opt_.field_tolerance);
+  const Sample& truth = sample(at);
   // Scalar outputs: relative to their magnitude (a scalar has no range of values), with the
   // field tolerance, so the refinement bounds their interpolation error as it bounds the fields'.
   for (std::size_t o = 0; o < truth.outputs.size(); ++o) {

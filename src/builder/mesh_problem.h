@@ -60,6 +60,13 @@ class MeshProblem final : public core::AdaptiveProblem {
   double interpolation_error(int at, int centre, const int* terms, const double* psi,
                              int n) override;
   double midpoint_error(int a, int b, int c) override;
+  /// The refinement test's measures, per quantity and unscaled by the tolerances: out[0] the
+  /// geometric error relative to the bbox diagonal of row `at` (the largest vertex displacement
+  /// where rows share combinatorics and it is at most geometry_cutoff, an upper bound of the
+  /// symmetric Hausdorff distance, else that distance), out[1 + f] field f's largest error
+  /// relative to its range in row `at`. False where a term cannot be mapped. Thread-safe.
+  bool quantity_errors(int at, int centre, const int* terms, const double* psi, int n,
+                       double geometry_cutoff, std::vector<double>& out);
   /// The wave's refinement tests on the executor's thread count (each is independent).
   void errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) override;
   void on_wave(int elements) override;

@@ -30,7 +30,7 @@ else()
   set(_mapped_file mapped_file_posix.cpp)
 endif()
 add_library(cadinterp_format STATIC asset_reader.cpp ${_mapped_file} asset_writer.cpp
-  format_version.cpp
+  format_version.cpp error_model.cpp
   synthetic_asset.cpp)
 add_dependencies(cadinterp_format cadinterp_fbs_header)
 target_include_directories(cadinterp_format PUBLIC ${PROJECT_SOURCE_DIR}/src ${_gen})

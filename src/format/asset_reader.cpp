@@ -364,20 +364,38 @@ void check_ref(const fb::BlobRef* r, const char* what, std::uint64_t section,
   extents.push_back({r->offset(), r->size(), r->checksum(), static_cast<std::uint8_t>(r->codec())});
 }
 
+// Element e's error model (format 1.3; error_model.h): absent, or `rows` (1 + #fields) by
+// (K + 1) finite values, in a file that says 1.3 or more.
+void check_error_model(const fb::ElementMeshes* m, int e, int K, std::size_t rows,
+                       std::uint16_t minor) {
+  const auto* model = m->error_model();
+  if (!model) return;
+  const std::string where = "element " + std::to_string(e) + ": ";
+  if (minor < kMinorOutputs)
+    corrupt(where + "error model in a file of format 1." + std::to_string(minor) +
+            " (1.3 content)");
+  if (model->size() != rows * static_cast<std::size_t>(K + 1)) corrupt(where + "error model size");
+  for (double v : *model)
+    if (!std::isfinite(v)) corrupt(where + "non-finite error model");
+}
+
 // Checks element e of the index against the basis and the limits: counts within limits, one
 // blob per term, every blob inside the section, and no more expansion than the limits allow.
 // Appends the extents of its blobs.
 void check_element(const fb::ElementMeshes* m, int e, const core::CompiledBasis& basis,
                    const ReadLimits& limits, std::size_t per_vertex, std::size_t per_tet,
-                   std::uint64_t section, std::vector<Extent>& extents) {
+                   std::size_t model_rows, std::uint16_t minor, std::uint64_t section,
+                   std::vector<Extent>& extents) {
   int terms = 0;
   basis.element_samples(e, &terms);
   // Before the infeasible-element shortcut: error_estimate answers for every element.
   if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
   if (m->vertex_count() == 0) {
     if (basis.element_feasible(e)) corrupt("feasible element without meshes");
+    if (m->error_model()) corrupt("element " + std::to_string(e) + ": error model without meshes");
     return;
   }
+  check_error_model(m, e, basis.dim(), model_rows, minor);
   if (m->vertex_count() > limits.max_vertices || m->tet_count() > limits.max_tets ||
       m->triangle_count() > limits.max_triangles)
     throw FormatError(Status::LimitExceeded,
@@ -479,9 +497,10 @@ void AssetReader::open(const ReadLimits& limits) {
   blobs_ = h.index_offset + h.index_size;
   const std::uint64_t section = h.file_size - blobs_;
   std::vector<Extent> extents;
+  const std::size_t model_rows = 1 + (index_->fields() ? index_->fields()->size() : 0);
   for (int e = 0; e < basis_.element_count(); ++e)
     check_element(elems->Get(static_cast<flatbuffers::uoffset_t>(e)), e, basis_, limits_,
-                  per_vertex_, per_tet_, section, extents);
+                  per_vertex_, per_tet_, model_rows, minor_, section, extents);
   check_tiling(extents, section, newer_minor(minor_));
 }
 

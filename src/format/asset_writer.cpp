@@ -133,6 +133,15 @@ void check_element_arrays(const ElementData& ed, int e, int terms, const FieldSi
     if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
 }
 
+// Checks element e's error model: empty, or (1 + #fields) by (K + 1) finite values.
+void check_error_model(const AssetContent& c, const ElementData& ed, int e) {
+  if (ed.error_model.empty()) return;
+  const std::size_t want = (1 + c.fields.size()) * static_cast<std::size_t>(c.basis->dim() + 1);
+  if (ed.error_model.size() != want) bad("element " + std::to_string(e) + ": error model size");
+  for (double v : ed.error_model)
+    if (!std::isfinite(v)) bad("element " + std::to_string(e) + ": error model not finite");
+}
+
 // Encodes element e's meshes into the blob section and returns its index table; an element
 // without meshes (only an infeasible one may lack them) stores its error estimate alone.
 flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuilder& fbb,
@@ -152,6 +161,7 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
     return eb.Finish();
   }
   check_element_arrays(ed, e, terms, sizes);
+  check_error_model(c, ed, e);
 
   const FloatParams pos_params{o.position_max_abs_error};
   const FloatParams field_params{o.field_max_abs_error};
@@ -178,6 +188,8 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
         encode_floats(o.float_codec, a.data(), a.size(), 1, nullptr, field_params), o.float_codec));
   const auto pos_v = fbb.CreateVectorOfStructs(pos);
   const auto field_v = fbb.CreateVectorOfStructs(fields);
+  flatbuffers::Offset<flatbuffers::Vector<double>> model_v;
+  if (!ed.error_model.empty()) model_v = fbb.CreateVector(ed.error_model);
   fb::ElementMeshesBuilder eb(fbb);
   eb.add_vertex_count(vc);
   eb.add_tet_count(static_cast<std::uint32_t>(ntet));
@@ -189,14 +201,24 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
   eb.add_fields(field_v);
   eb.add_error_estimate(ed.error_estimate);
   eb.add_canonical_positions(&canonical);
+  if (!ed.error_model.empty()) eb.add_error_model(model_v);
   return eb.Finish();
 }
 
+// The lowest minor whose schema holds c (SPEC.md, "Versions and features"): 1.3 with outputs
+// or error models, else 1.1 when a field has a unit, else 1.0.
+std::uint16_t file_minor(const AssetContent& c) {
+  const bool model = std::any_of(c.elements.begin(), c.elements.end(),
+                                 [](const ElementData& ed) { return !ed.error_model.empty(); });
+  if (!c.outputs.empty() || model) return kMinorOutputs;
+  const bool unit = std::any_of(c.fields.begin(), c.fields.end(),
+                                [](const FieldInfo& f) { return !f.unit.empty(); });
+  return unit ? kMinorFieldUnits : 0;
+}
+
 // Builds the index around the element tables already in `fbb` and finishes the buffer.
-// *any_unit tells whether a field has a unit (the file then needs format 1.1).
 void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, const WriteOptions& o,
-                 const std::vector<flatbuffers::Offset<fb::ElementMeshes>>& elements,
-                 bool* any_unit) {
+                 const std::vector<flatbuffers::Offset<fb::ElementMeshes>>& elements) {
   // format_minor is written only when non-zero (FlatBuffers omits a scalar equal to its
   // default), so files without outputs stay byte for byte minor 0 or 1 files.
   const core::CompiledBasis::Parts& p = c.basis->parts();
@@ -206,10 +228,8 @@ void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, con
     params.push_back(
         fb::CreateParameterDirect(fbb, pi.name.c_str(), pi.unit.c_str(), pi.lower, pi.upper));
   std::vector<flatbuffers::Offset<fb::FieldDesc>> fields;
-  *any_unit = false;
   for (const FieldInfo& f : c.fields) {
     // Absent, not empty, without a unit: such a file is byte for byte a format 1.0 file.
-    *any_unit = *any_unit || !f.unit.empty();
     fields.push_back(fb::CreateFieldDescDirect(
         fbb, f.name.c_str(), static_cast<fb::FieldLocation>(f.location),
         static_cast<std::uint8_t>(f.components), static_cast<float>(o.field_max_abs_error),
@@ -239,12 +259,14 @@ void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, con
     outputs.push_back(fb::CreateSampleOutputDirect(
         fbb, out.name.c_str(), out.unit.empty() ? nullptr : out.unit.c_str(), &out.values));
   // Absent, not empty, when there is none: assets without failures or outputs keep their bytes.
-  // Outputs are 1.3 content: such a file repeats its minor in the index (SPEC.md).
+  // Outputs and error models are 1.3 content: such a file repeats its minor in the index
+  // (SPEC.md).
   const bool with_outputs = !outputs.empty();
-  const auto asset = fb::CreateAssetDirect(
-      fbb, &params, basis, &elements, &fields, &regions, prov,
-      static_cast<float>(o.position_max_abs_error), infeasible.empty() ? nullptr : &infeasible,
-      with_outputs ? kMinorOutputs : 0, nullptr, with_outputs ? &outputs : nullptr);
+  const auto asset = fb::CreateAssetDirect(fbb, &params, basis, &elements, &fields, &regions, prov,
+                                           static_cast<float>(o.position_max_abs_error),
+                                           infeasible.empty() ? nullptr : &infeasible,
+                                           file_minor(c) >= kMinorFeatures ? file_minor(c) : 0,
+                                           nullptr, with_outputs ? &outputs : nullptr);
   fb::FinishAssetBuffer(fbb, asset);
 }
 
@@ -282,11 +304,8 @@ std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions&
   std::vector<flatbuffers::Offset<fb::ElementMeshes>> elements;
   for (int e = 0; e < c.basis->element_count(); ++e)
     elements.push_back(write_element(fbb, sink, c, e, o, sizes));
-  bool any_unit = false;
-  write_index(fbb, c, o, elements, &any_unit);
-  const std::uint16_t minor =
-      !c.outputs.empty() ? kMinorOutputs : (any_unit ? kMinorFieldUnits : 0);
-  return assemble_file(fbb, section, minor);
+  write_index(fbb, c, o, elements);
+  return assemble_file(fbb, section, file_minor(c));
 }
 
 void check_asset_file_writable(const std::string& path) {

@@ -50,6 +50,9 @@ struct ElementData {
   std::vector<std::vector<float>> positions;  ///< per term of the element: #V by 3
   std::vector<std::vector<float>> fields;     ///< per term: the fields concatenated (empty if none)
   double error_estimate = 0.0;
+  /// Format 1.3 (error_model.h): (1 + #fields) by (K + 1) errors measured by the builder, finite
+  /// (negative: not measured); empty when not measured (a feasible element only).
+  std::vector<double> error_model;
 };
 
 /// A point where the builder's host failed.

@@ -16,6 +16,7 @@
 #include "cadinterp_generated.h"
 #include "capi/capi_guard.h"
 #include "format/asset_reader.h"
+#include "format/error_model.h"
 #include "runtime/evaluate.h"
 #include "runtime/runtime_objects.h"
 
@@ -263,13 +264,62 @@ cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset* a, int eleme
   return CADINTERP_OK;
 }
 
+namespace {
+
+// The estimates of cadinterp_error_estimates at x (element e feasible) into out (1 + #fields
+// values): the element's error model shaped at x's place in the element (format/error_model.h),
+// times the calibrated safety factor; -1 everywhere without a model.
+void estimates_at(const cadinterp_asset* a, int e, const double* x, double* out, int count) {
+  const cadinterp::core::CompiledBasis& basis = a->reader->basis();
+  const auto* model =
+      a->reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e))->error_model();
+  if (!model) {
+    std::fill(out, out + count, -1.0);
+    return;
+  }
+  const int K = basis.dim();
+  double lo[cadinterp::core::kMaxDim], hi[cadinterp::core::kMaxDim], t[cadinterp::core::kMaxDim];
+  basis.element_box(e, lo, hi);
+  for (int d = 0; d < K; ++d) t[d] = (x[d] - lo[d]) / (hi[d] - lo[d]);
+  const bool cubic = basis.degree() == cadinterp::core::Degree::Cubic;
+  for (int q = 0; q < count; ++q) {
+    const double est = cadinterp::format::error_model_estimate(
+        model->data() + static_cast<std::size_t>(q) * static_cast<std::size_t>(K + 1), K, cubic, t);
+    out[q] = est < 0 ? -1.0
+                     : est * (cubic ? cadinterp::format::kErrorModelSafetyCubic
+                                    : cadinterp::format::kErrorModelSafetyLinear);
+  }
+  if (out[0] >= 0) out[0] = std::max(out[0], cadinterp::format::kGeometryFloor);
+}
+
+}  // namespace
+
 cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a, const double* x,
                                           double* error) {
   if (!a || !x || !error) return CADINTERP_E_INVALID_ARGUMENT;
   const int e = a->reader->basis().locate(x);
   if (e < 0) return CADINTERP_E_OUTSIDE_DOMAIN;
-  *error =
-      a->reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e))->error_estimate();
+  if (!a->reader->basis().element_feasible(e)) return CADINTERP_E_INFEASIBLE;
+  const auto* m = a->reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+  if (!m->error_model()) {
+    *error = m->error_estimate();
+    return CADINTERP_OK;
+  }
+  // Row 0 of the model is the geometry's (the rows after it are the fields').
+  estimates_at(a, e, x, error, 1);
+  return CADINTERP_OK;
+}
+
+cadinterp_status cadinterp_error_estimates(const cadinterp_asset* a, const double* x, double* out,
+                                           int capacity, int* count) {
+  if (!a || !count) return CADINTERP_E_INVALID_ARGUMENT;
+  const auto* fields = a->reader->index().fields();
+  *count = 1 + (fields ? static_cast<int>(fields->size()) : 0);
+  if (!x || (!out && capacity > 0) || capacity < *count) return CADINTERP_E_INVALID_ARGUMENT;
+  const int e = a->reader->basis().locate(x);
+  if (e < 0) return CADINTERP_E_OUTSIDE_DOMAIN;
+  if (!a->reader->basis().element_feasible(e)) return CADINTERP_E_INFEASIBLE;
+  estimates_at(a, e, x, out, *count);
   return CADINTERP_OK;
 }
 

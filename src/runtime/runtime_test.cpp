@@ -475,6 +475,8 @@ TEST(Runtime, FailuresAreNamedAndLeaveOutputsUntouched) {
   EXPECT_EQ(cadinterp_eval(o->ws, nullptr, nullptr, 0, &m), CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(std::memcmp(&m, &before, sizeof m), 0) << "a failed eval wrote its output";
   double err = -5;
+  EXPECT_EQ(cadinterp_error_estimate(o->asset, corner, &err), CADINTERP_E_INFEASIBLE);
+  EXPECT_EQ(err, -5);
   EXPECT_EQ(cadinterp_error_estimate(o->asset, ok_x, &err), CADINTERP_OK);
   EXPECT_NE(err, -5);
   EXPECT_EQ(cadinterp_eval(o->ws, ok_x, nullptr, 0, &m), CADINTERP_OK);

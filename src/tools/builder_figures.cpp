@@ -3,9 +3,12 @@
 // sample counts at equal error, and the speedup from 1 to 2 threads. With --calls, only the
 // host's cost (§4.2): host calls against kept samples and the measured error, per model. With
 // --infeasible, the feasible space kept: on hosts failing in 16 % of their box (fail_region=2),
-// the part of the box the runtime refuses against the part where the host fails.
-//   cadinterp-builder-figures [--points N] [--host-options OPTS] [--calls | --infeasible]
-//                             [--model NAME]
+// the part of the box the runtime refuses against the part where the host fails. With
+// --estimates, the calibration of cadinterp_error_estimates per model and degree: on two
+// disjoint sets of random points (seeds 7 and 11), per quantity, the fraction of points where
+// the estimate bounds the error measured against the host and the median estimate / error.
+//   cadinterp-builder-figures [--points N] [--host-options OPTS]
+//                             [--calls | --infeasible | --estimates] [--model NAME]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -58,18 +61,25 @@ cadinterp_build_options figure_options() {
   return o;
 }
 
+// The analytic models of the host-call and estimate tables, with their host options.
+struct Model {
+  const char* name;
+  std::string options;
+};
+std::vector<Model> table_models(const std::string& bracket_options) {
+  return {{"bracket", bracket_options}, {"plate", ""}, {"foldplate", "edge=10"}};
+}
+
 // Host calls per kept sample and the error measured against the host (not the driver's own
 // estimate), one build per model at the figures' defaults.
 // `only`: one model's row (empty: all).
 int host_calls_table(const std::string& bracket_options, int points, const std::string& only,
                      const std::string& path) {
   std::printf("model      samples  host calls  calls/sample  geometry max  field max  wall s\n");
-  for (const char* model : {"bracket", "plate", "foldplate"}) {
-    if (!only.empty() && only != model) continue;
-    const std::string opts = !std::strcmp(model, "bracket")     ? bracket_options
-                             : !std::strcmp(model, "foldplate") ? "edge=10"
-                                                                : "";
-    const cadinterp_host* host = analytic_host(model, opts);
+  for (const Model& m : table_models(bracket_options)) {
+    if (!only.empty() && only != m.name) continue;
+    const char* model = m.name;
+    const cadinterp_host* host = analytic_host(model, m.options);
     if (!host) return 1;
     const mesh::Host h(*host);
     cadinterp_build_options o = figure_options();
@@ -162,17 +172,55 @@ int infeasible_table(int points, const std::string& only, const std::string& pat
   return 0;
 }
 
+// One calibration row per quantity: points, coverage and median ratio on each point set.
+void print_estimates(const char* model, int degree, const builder::AccuracyReport& a,
+                     const builder::AccuracyReport& b) {
+  for (std::size_t q = 0; q < a.estimate_points.size() && q < b.estimate_points.size(); ++q) {
+    const std::string name = q ? a.field_names[q - 1] : "geometry";
+    std::printf("%-10s %6d  %-12s %6d  %7.1f %%  %9.2f  %9.2f  %6d  %7.1f %%  %9.2f  %9.2f\n",
+                model, degree, name.c_str(), a.estimate_points[q], 100 * a.estimate_coverage[q],
+                a.estimate_median_ratio[q], a.estimate_p10_ratio[q], b.estimate_points[q],
+                100 * b.estimate_coverage[q], b.estimate_median_ratio[q], b.estimate_p10_ratio[q]);
+  }
+}
+
+// The calibration of the per-point error estimates (cadinterp_error_estimates) against the
+// host at random points, per model and degree, at the figures' defaults.
+int estimates_table(const std::string& bracket_options, int points, const std::string& only,
+                    const std::string& path) {
+  std::printf(
+      "model      degree  quantity     set A:  n  bounded  med ratio  p10 ratio  set B:  n  "
+      "bounded  med ratio  p10 ratio\n");
+  for (const Model& m : table_models(bracket_options)) {
+    if (!only.empty() && only != m.name) continue;
+    const cadinterp_host* host = analytic_host(m.name, m.options);
+    if (!host) return 1;
+    const mesh::Host h(*host);
+    for (int degree : {1, 3}) {
+      cadinterp_build_options o = figure_options();
+      o.degree = degree;
+      build(host, o, path);
+      print_estimates(m.name, degree, builder::measure_accuracy(path, h, points, 7),
+                      builder::measure_accuracy(path, h, points, 11));
+    }
+  }
+  std::filesystem::remove(path);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int points = 200;
-  bool calls = false, infeasible = false;
+  bool calls = false, infeasible = false, estimates = false;
   std::string options = "cells=6", only_model;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
     else if (!std::strcmp(argv[i], "--infeasible"))
       infeasible = true;
+    else if (!std::strcmp(argv[i], "--estimates"))
+      estimates = true;
     else if (!std::strcmp(argv[i], "--model") && i + 1 < argc)
       only_model = argv[++i];
     else if (!std::strcmp(argv[i], "--points") && i + 1 < argc)
@@ -185,6 +233,7 @@ int main(int argc, char** argv) {
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, only_model, path);
   if (infeasible) return infeasible_table(points, only_model, path);
+  if (estimates) return estimates_table(options, points, only_model, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
         analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());

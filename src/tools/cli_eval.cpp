@@ -128,6 +128,8 @@ struct EvalResult {
   std::vector<double> x;
   int element = -1;
   double error_estimate = -1;
+  /// cadinterp_error_estimates' field entries, with the fields' names (every field of the asset).
+  std::vector<std::pair<std::string, double>> field_error_estimates;
   std::uint32_t V = 0, T = 0, F = 0;
   std::vector<FieldSummary> fields;
   std::vector<Written> written;
@@ -181,6 +183,16 @@ EvalResult evaluate(const EvalArgs& a) {
   const std::vector<int> field_idx = select_fields(asset.get(), a.fields_spec);
   r.element = locate_or_fail(asset.get(), r.x, r.params);
   cadinterp_error_estimate(asset.get(), r.x.data(), &r.error_estimate);
+  int count = 0;
+  cadinterp_error_estimates(asset.get(), r.x.data(), nullptr, 0, &count);
+  std::vector<double> est(static_cast<std::size_t>(count), -1.0);
+  cadinterp_error_estimates(asset.get(), r.x.data(), est.data(), count, &count);
+  for (int f = 1; f < count; ++f) {
+    cadinterp_field_info info{};
+    cadinterp_field(asset.get(), f - 1, &info);
+    r.field_error_estimates.emplace_back(info.name ? info.name : "",
+                                         est[static_cast<std::size_t>(f)]);
+  }
 
   WorkspacePtr ws = make_workspace(asset.get());
   cadinterp_mesh mesh{};
@@ -224,6 +236,14 @@ void print_json(const EvalArgs& a, const EvalResult& r) {
   } else {
     w.key("error_estimate").null();
   }
+  w.key("field_error_estimates").begin_object();
+  for (const auto& [name, e] : r.field_error_estimates) {
+    if (e >= 0)
+      w.field(name, e);
+    else
+      w.key(name).null();
+  }
+  w.end_object();
   w.field("vertices", r.V).field("tets", r.T).field("triangles", r.F);
   w.key("fields").begin_array();
   for (const FieldSummary& f : r.fields) {
@@ -267,6 +287,8 @@ void print_text(const EvalArgs& a, const EvalResult& r) {
     std::printf("error est.   %.3g (relative to the bounding-box diagonal)\n", r.error_estimate);
   else
     std::printf("error est.   not measured\n");
+  for (const auto& [name, e] : r.field_error_estimates)
+    if (e >= 0) std::printf("error est.   %-16s %.3g (relative to its range)\n", name.c_str(), e);
   std::printf("mesh         %u vertices, %u tets, %u boundary triangles\n", r.V, r.T, r.F);
   for (const FieldSummary& f : r.fields)
     std::printf("field        %-16s per %-6s %d comp.  min %.6g  max %.6g\n", f.name.c_str(),

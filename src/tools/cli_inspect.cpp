@@ -326,8 +326,9 @@ void print_text_contents(const AssetSummary& s) {
   std::printf("  tets       %s (total %.0f)\n", stat_text(s.tets).c_str(), s.tets.sum);
   std::printf("  triangles  %s (total %.0f)\n", stat_text(s.tris).c_str(), s.tris.sum);
   if (s.err.n)
-    std::printf("  error est. min %.3g, mean %.3g, max %.3g (bbox diagonals; %llu measured)\n",
-                s.err.min, s.err.mean(), s.err.max, static_cast<unsigned long long>(s.err.n));
+    std::printf(
+        "  error est. min %.3g, mean %.3g, max %.3g (geometry, bbox diagonals; %llu measured)\n",
+        s.err.min, s.err.mean(), s.err.max, static_cast<unsigned long long>(s.err.n));
   else
     std::printf("  error est. not measured\n");
   const float pos_err = s.idx->position_max_abs_error();

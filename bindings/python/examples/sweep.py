@@ -73,9 +73,9 @@ def evaluate(asset, X, field, density, threads):
     mass, peak, error = (np.full(len(X), np.nan) for _ in range(3))
     meshes = asset.eval_many(X, [field], threads=threads, errors="none")
     for i, (x, m) in enumerate(zip(X, meshes)):
-        error[i] = asset.error_estimate(x)
         if m is None:
             continue
+        error[i] = asset.error_estimate(x)
         values = m.fields[field]
         peak[i] = (np.linalg.norm(values, axis=1) if values.ndim == 2 else values).max()
         mass[i] = asset.eval_properties(x, density=density)["mass"]

@@ -280,8 +280,29 @@ double Asset::error_estimate(py::handle x) const {
   const auto xa = as_point(x, k_);
   double e = 0;
   const cadinterp_status s = cadinterp_error_estimate(p->asset(), xa.data(), &e);
-  if (s != CADINTERP_OK) fail(s, "x is outside the parameter box or not finite", xa.data());
+  if (s != CADINTERP_OK)
+    fail(s, "no error estimate at x (outside the box, or an infeasible element)", xa.data());
   return e < 0 ? std::nan("") : e;
+}
+
+py::dict Asset::error_estimates(py::handle x) const {
+  const auto p = pool();
+  const auto xa = as_point(x, k_);
+  int count = 0;
+  cadinterp_error_estimates(p->asset(), xa.data(), nullptr, 0, &count);
+  std::vector<double> e(static_cast<std::size_t>(count));
+  const cadinterp_status s =
+      cadinterp_error_estimates(p->asset(), xa.data(), e.data(), count, &count);
+  if (s != CADINTERP_OK)
+    fail(s, "no error estimates at x (outside the box, or an infeasible element)", xa.data());
+  py::dict d;
+  for (int q = 0; q < count; ++q) {
+    cadinterp_field_info f{};
+    if (q) cadinterp_field(p->asset(), q - 1, &f);
+    const double v = e[static_cast<std::size_t>(q)];
+    d[q ? f.name : "geometry"] = v < 0 ? std::nan("") : v;
+  }
+  return d;
 }
 
 py::tuple Asset::element_mesh_size(int element) const {
@@ -343,8 +364,12 @@ workspace). A context manager: `with cadinterp.Asset(p) as a:` closes it on exit
   cls.def("locate", &Asset::locate, py::arg("x"),
           "(element, feasible): the element holding x and whether eval succeeds there.")
       .def("error_estimate", &Asset::error_estimate, py::arg("x"),
-           "The builder's error estimate of the element holding x, relative to the bounding-box "
-           "diagonal; NaN when the builder did not measure it.")
+           "The estimated geometric error at x (symmetric Hausdorff distance to the host's mesh "
+           "relative to its bounding-box diagonal); NaN when the builder did not measure it.")
+      .def("error_estimates", &Asset::error_estimates, py::arg("x"),
+           "Estimated errors at x per quantity: {'geometry': relative to the bounding-box "
+           "diagonal, field name: relative to the field's range}; NaN where not measured "
+           "(assets written before format 1.3).")
       .def("element_mesh_size", &Asset::element_mesh_size, py::arg("element"),
            "(#V, #T, #F) of the meshes eval returns in that element ((0, 0, 0): infeasible).")
       .def("set_cache_budget", &Asset::set_cache_budget, py::arg("bytes"),

@@ -94,6 +94,7 @@ class Asset {
   py::object describe(const char* what) const;
   py::tuple locate(py::handle x) const;
   double error_estimate(py::handle x) const;
+  py::dict error_estimates(py::handle x) const;
   py::tuple element_mesh_size(int element) const;
   void set_cache_budget(std::size_t bytes) const;
   std::string repr() const;

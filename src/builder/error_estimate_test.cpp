@@ -1,0 +1,216 @@
+// The per-point error estimates (cadinterp_error_estimates, format 1.3 ElementMeshes.error_model)
+// on assets the builder writes from the analytic host: the C ABI's contract (geometry and fields
+// separate, INFEASIBLE in infeasible elements, argument checks), assets without a model, and the
+// calibration against the host's closed-form fields at random points.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "analytic_host.h"
+#include "builder/builder_e2e.h"
+#include "cadinterp/cadinterp.h"
+#include "cadinterp/cadinterp_builder.h"
+#include "format/asset_writer.h"
+#include "format/synthetic_asset.h"
+
+namespace {
+
+using namespace cadinterp;
+
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() /
+          ("cadinterp_errest_" + std::to_string(::getpid()) + "_" + name))
+      .string();
+}
+
+const cadinterp_host* analytic(const char* model, const char* options) {
+  const char* err = nullptr;
+  const cadinterp_host* h = cadinterp_host_entry(model, options, &err);
+  if (!h) ADD_FAILURE() << model << ": " << (err ? err : "?");
+  return h;
+}
+
+// Builds `model` with `samples` samples of degree `degree` into a temporary file.
+std::string build(const cadinterp_host* h, const std::string& name, int samples, int degree) {
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = samples;
+  o.degree = degree;
+  o.threads = 2;
+  const std::string path = temp_path(name);
+  const builder::BuildOutcome b = builder::build_asset(*h, o, path);
+  EXPECT_EQ(b.status, CADINTERP_OK) << b.error;
+  return path;
+}
+
+struct AssetCloser {
+  void operator()(cadinterp_asset* a) const { cadinterp_close(a); }
+};
+using AssetPtr = std::unique_ptr<cadinterp_asset, AssetCloser>;
+
+AssetPtr open(const std::string& path) {
+  cadinterp_asset* a = nullptr;
+  EXPECT_EQ(cadinterp_open(path.c_str(), &a), CADINTERP_OK) << cadinterp_open_error();
+  return AssetPtr(a);
+}
+
+// `model` (host options `options`) built linear with `samples` samples into a temporary file
+// (its path in `path`), opened; null after a failure was reported.
+AssetPtr build_and_open(const char* model, const char* options, int samples, std::string& path) {
+  const cadinterp_host* h = analytic(model, options);
+  if (!h) return nullptr;
+  path = build(h, std::string(model) + ".cadi", samples, 1);
+  return open(path);
+}
+
+// The plate (K = 3, three per-vertex fields with closed forms) at a small budget: the estimate
+// has one entry per quantity, the geometry's is cadinterp_error_estimate's, and geometry and
+// fields are measured apart (the plate's geometry is multilinear in its parameters, so
+// interpolation reproduces it up to the mapping, while its fields are not).
+TEST(ErrorEstimates, GeometryAndFieldsSeparatelyPerPoint) {
+  std::string path;
+  const AssetPtr a = build_and_open("plate", "edge=8", 40, path);
+  ASSERT_TRUE(a);
+  const int fields = cadinterp_field_count(a.get());
+  ASSERT_GT(fields, 0);
+  cadinterp_parameter_info p[3];
+  for (int d = 0; d < 3; ++d) ASSERT_EQ(cadinterp_parameter(a.get(), d, &p[d]), CADINTERP_OK);
+  double geometry_max = 0, field_max = 0;
+  for (int i = 0; i < 50; ++i) {
+    double x[3];
+    for (int d = 0; d < 3; ++d)
+      x[d] = p[d].lower +
+             (p[d].upper - p[d].lower) * std::fmod(0.137 + 0.61803 * (i + 1) * (d + 1), 1.0);
+    std::vector<double> out(static_cast<std::size_t>(1 + fields), -5);
+    int count = 0;
+    ASSERT_EQ(cadinterp_error_estimates(a.get(), x, out.data(), 1 + fields, &count), CADINTERP_OK);
+    EXPECT_EQ(count, 1 + fields);
+    double geometry = -5;
+    ASSERT_EQ(cadinterp_error_estimate(a.get(), x, &geometry), CADINTERP_OK);
+    EXPECT_EQ(geometry, out[0]);
+    for (double e : out) EXPECT_GE(e, 0);
+    geometry_max = std::max(geometry_max, out[0]);
+    for (int f = 1; f <= fields; ++f)
+      field_max = std::max(field_max, out[static_cast<std::size_t>(f)]);
+  }
+  EXPECT_GT(field_max, 10 * geometry_max) << "the fields' estimates are not the geometry's";
+  EXPECT_GT(field_max, 0);
+  std::filesystem::remove(path);
+}
+
+TEST(ErrorEstimates, ArgumentsDomainAndInfeasibleElements) {
+  std::string path;
+  const AssetPtr a = build_and_open("bracket", "cells=1,fail_region=1", 60, path);
+  ASSERT_TRUE(a);
+  const int want = 1 + cadinterp_field_count(a.get());
+  std::vector<double> out(static_cast<std::size_t>(want), -5);
+  int count = -1;
+  double lo[4], hi[4];
+  for (int d = 0; d < 4; ++d) {
+    cadinterp_parameter_info info;
+    ASSERT_EQ(cadinterp_parameter(a.get(), d, &info), CADINTERP_OK);
+    lo[d] = info.lower;
+    hi[d] = info.upper;
+  }
+  const double ok[4] = {lo[0], lo[1], (lo[2] + hi[2]) / 2, (lo[3] + hi[3]) / 2};
+  // Sizing call, too small a buffer, NULL arguments: count is still reported, out untouched.
+  EXPECT_EQ(cadinterp_error_estimates(a.get(), ok, nullptr, 0, &count),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(count, want);
+  count = -1;
+  EXPECT_EQ(cadinterp_error_estimates(a.get(), ok, out.data(), want - 1, &count),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(count, want);
+  EXPECT_EQ(out[0], -5);
+  EXPECT_EQ(cadinterp_error_estimates(nullptr, ok, out.data(), want, &count),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_error_estimates(a.get(), nullptr, out.data(), want, &count),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_error_estimates(a.get(), ok, out.data(), want, nullptr),
+            CADINTERP_E_INVALID_ARGUMENT);
+  EXPECT_EQ(cadinterp_error_estimate(a.get(), ok, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+  // Outside the box.
+  const double outside[4] = {hi[0] + 1, lo[1], lo[2], lo[3]};
+  EXPECT_EQ(cadinterp_error_estimates(a.get(), outside, out.data(), want, &count),
+            CADINTERP_E_OUTSIDE_DOMAIN);
+  double e = -5;
+  EXPECT_EQ(cadinterp_error_estimate(a.get(), outside, &e), CADINTERP_E_OUTSIDE_DOMAIN);
+  EXPECT_EQ(e, -5);
+  EXPECT_EQ(out[0], -5);
+  // The host fails where the first two parameters are in the top quarter: that corner's
+  // elements are infeasible, and have no estimate.
+  const double bad[4] = {hi[0], hi[1], hi[2], hi[3]};
+  int element = -1, feasible = -1;
+  ASSERT_EQ(cadinterp_locate(a.get(), bad, &element, &feasible), CADINTERP_OK);
+  ASSERT_EQ(feasible, 0);
+  EXPECT_EQ(cadinterp_error_estimates(a.get(), bad, out.data(), want, &count),
+            CADINTERP_E_INFEASIBLE);
+  EXPECT_EQ(cadinterp_error_estimate(a.get(), bad, &e), CADINTERP_E_INFEASIBLE);
+  EXPECT_EQ(e, -5);
+  EXPECT_EQ(out[0], -5);
+  // A feasible point answers.
+  ASSERT_EQ(cadinterp_error_estimates(a.get(), ok, out.data(), want, &count), CADINTERP_OK);
+  EXPECT_GE(out[0], 0);
+  std::filesystem::remove(path);
+}
+
+// An asset without the builder's error model (as every asset written before format 1.3): it
+// opens, its estimates are unknown (-1) and cadinterp_error_estimate answers its stored value.
+TEST(ErrorEstimates, AssetsWithoutAModelOpenAndReportUnknown) {
+  format::SyntheticSpec s;
+  s.K = 2;
+  s.fields = true;
+  const format::SyntheticAsset syn = format::make_synthetic_asset(s);
+  const std::vector<std::uint8_t> bytes = format::write_asset(syn.content, {});
+  ASSERT_EQ(bytes[10], 0) << "a model-free asset is written as format 1.0";
+  cadinterp_asset* raw = nullptr;
+  ASSERT_EQ(cadinterp_open_memory(bytes.data(), bytes.size(), 1, &raw), CADINTERP_OK);
+  const AssetPtr a(raw);
+  const double x[2] = {0.3, 0.6};
+  const int want = 1 + cadinterp_field_count(a.get());
+  std::vector<double> out(static_cast<std::size_t>(want), -5);
+  int count = 0;
+  ASSERT_EQ(cadinterp_error_estimates(a.get(), x, out.data(), want, &count), CADINTERP_OK);
+  for (double e : out) EXPECT_EQ(e, -1);
+  int element = -1;
+  ASSERT_EQ(cadinterp_locate(a.get(), x, &element, nullptr), CADINTERP_OK);
+  double e = -5;
+  ASSERT_EQ(cadinterp_error_estimate(a.get(), x, &e), CADINTERP_OK);
+  EXPECT_EQ(e, syn.content.elements[static_cast<std::size_t>(element)].error_estimate);
+}
+
+// Calibration against a host whose truth is a closed form: at 200 random points (other points
+// than the calibration's), the estimate bounds the true error (geometry: the Hausdorff distance
+// to the host's mesh at x; fields: against the host's closed-form values on its mesh at x, the
+// comparison the builder's own measurements make) at >= 90 % of the points, and the fields'
+// estimates are within 3x of it at the median. (The geometry's true error is float rounding
+// on this model, whose boundary the interpolation reproduces, so its ratio is not bounded.)
+TEST(ErrorEstimates, BoundTheTrueErrorAtMostPoints) {
+  const cadinterp_host* h = analytic("plate", "edge=8");
+  ASSERT_NE(h, nullptr);
+  const std::string path = build(h, "plate_calibration.cadi", 120, 1);
+  const mesh::Host host(*h);
+  const builder::AccuracyReport r = builder::measure_accuracy(path, host, 200, 3);
+  ASSERT_EQ(r.estimate_points.size(), 1 + r.field_names.size());
+  for (std::size_t q = 0; q < r.estimate_points.size(); ++q) {
+    const std::string name = q ? r.field_names[q - 1] : "geometry";
+    std::printf(
+        "[ figures ] %s: bounded at %.1f %% of %d points, estimate / error: median %.2f, 10th "
+        "percentile %.2f\n",
+        name.c_str(), 100 * r.estimate_coverage[q], r.estimate_points[q],
+        r.estimate_median_ratio[q], r.estimate_p10_ratio[q]);
+    EXPECT_GE(r.estimate_points[q], 190) << name;
+    EXPECT_GE(r.estimate_coverage[q], 0.9) << name;
+    if (q) {
+      EXPECT_LE(r.estimate_median_ratio[q], 3.0) << name;
+    }
+  }
+  std::filesystem::remove(path);
+}
+
+}  // namespace

@@ -1,0 +1,40 @@
+// The per-element error model (format 1.3, ElementMeshes.error_model; SPEC.md "Error model"):
+// what the builder measured on an element, per quantity, and the shape the runtime gives it
+// inside the element. Shared by the builder (which stores the element's largest geometry
+// estimate in ElementMeshes.error_estimate) and the runtime (cadinterp_error_estimates).
+#pragma once
+
+namespace cadinterp::format {
+
+/// The factors the runtime multiplies the shaped estimate by, per basis degree, chosen so that
+/// the estimate bounds the true error at >= 90 % of random points: the smallest factor that
+/// does so for every quantity of the analytic models on one set of points (seed 7), checked on
+/// another (seed 11) and on the error_estimate_tests' points (docs/error-estimates.md). The
+/// linear shape bounds the error unscaled (its 10th-percentile ratio is 1.3 to 2.0 wherever the
+/// truth is the host's own mesh); the cubic constant, the largest error measured at 2K + 1
+/// points, misses the element's worst points: 1 / 0.89, the smallest 10th-percentile ratio of
+/// the first set, rounded up.
+inline constexpr double kErrorModelSafetyLinear = 1.0;
+inline constexpr double kErrorModelSafetyCubic = 1.15;
+
+/// The geometry estimate's floor: float32 storage rounds every position by up to 2^-24 of its
+/// magnitude, so no geometric error below about 2^-23 of the diagonal can be promised (for
+/// models whose coordinates are no larger than their diagonal).
+inline constexpr double kGeometryFloor = 0x1p-23;
+
+/// The estimate of one quantity at unit position t (K values in [0, 1], the point's place in the
+/// element's box) from its model row (K + 1 values: centre error, then one per direction; see
+/// cadinterp.fbs), unscaled. Linear bases: the error of multilinear interpolation of a function
+/// with curvature e_d along d, sum_d e_d 4 t_d (1 - t_d) (paper §4.2, "distance in each
+/// direction"), with e_d the measured midpoint error, raised to the centre error / K where the
+/// directions explain less than the centre shows, and the centre error where a direction was not
+/// measured; zero at the element's corners, where the interpolant takes the samples' values.
+/// Cubic bases: the largest error measured at the centre and the face centres, constant over the
+/// element (a cubic B-spline interpolant is not exact at an element's corners, and its error
+/// has no simple per-direction shape). Negative when the centre error is unknown.
+double error_model_estimate(const double* row, int K, bool cubic, const double* t);
+
+/// The largest value of error_model_estimate over the element (at its centre).
+double error_model_max(const double* row, int K, bool cubic);
+
+}  // namespace cadinterp::format
