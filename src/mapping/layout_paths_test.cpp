@@ -81,7 +81,7 @@ TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
   }
   src_over.push_back(s1);
   for (auto* c : {&can_over, &can_fine, &can_under}) c->push_back(moved(10, 0));
-  const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
+  const mapping::Surface ss{&src, {}, {}, {}, {}}, cs{&can, {}, {}, {}, {}};
   EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_over));
   EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_fine));
   EXPECT_TRUE(mapping::paths_run_alike(cs, can_over, ss, src_over));
@@ -100,7 +100,7 @@ TEST(LayoutPaths, SlackAcceptsAPathBentByTheMesh) {
   mesh::Sample src, can;
   src.vertices = {53.16, 0, 40, 56.45, -2.65, 40, 60, 0, 40};
   can.vertices = {55.27, 0, 40, 60, 0, 40};
-  const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
+  const mapping::Surface ss{&src, {}, {}, {}, {}}, cs{&can, {}, {}, {}, {}};
   const std::vector<std::uint32_t> bent{0, 1, 2}, straight{0, 1};
   EXPECT_FALSE(mapping::paths_run_alike(ss, bent, cs, straight));
   EXPECT_FALSE(mapping::paths_run_alike(ss, bent, cs, straight, 2.0));
