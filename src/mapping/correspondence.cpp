@@ -242,6 +242,37 @@ std::set<Edge> seam_edges(const Surface& s, const std::set<Id>& common_edges,
   return seam;
 }
 
+// The axis-aligned box of a polyline (3 doubles per node); empty (lo > hi) without nodes.
+struct Box {
+  double lo[3], hi[3];
+};
+
+Box box_of(const std::vector<double>& polyline) {
+  Box b;
+  for (int k = 0; k < 3; ++k) {
+    b.lo[k] = std::numeric_limits<double>::infinity();
+    b.hi[k] = -std::numeric_limits<double>::infinity();
+  }
+  for (std::size_t i = 0; i + 2 < polyline.size(); i += 3)
+    for (int k = 0; k < 3; ++k) {
+      b.lo[k] = std::min(b.lo[k], polyline[i + std::size_t(k)]);
+      b.hi[k] = std::max(b.hi[k], polyline[i + std::size_t(k)]);
+    }
+  return b;
+}
+
+// Distance from p to box b (infinity for an empty box): a lower bound of the distance to any
+// segment between the box's nodes.
+double box_distance(const Box& b, const double* p) {
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (b.lo[k] > b.hi[k]) return std::numeric_limits<double>::infinity();
+    const double e = std::max({b.lo[k] - p[k], 0.0, p[k] - b.hi[k]});
+    d2 += e * e;
+  }
+  return std::sqrt(d2);
+}
+
 }  // namespace
 
 std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges,
@@ -253,6 +284,9 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
   keys.reserve(m.paths.size());
   for (const mesh::Path& p : m.paths) keys.push_back(path_edge_key(p));
   const std::set<Edge> seam = seam_edges(s, common_edges, keys, tolerance);
+  std::vector<Box> boxes;
+  boxes.reserve(m.paths.size());
+  for (const mesh::Path& p : m.paths) boxes.push_back(box_of(p.polyline));
   for (int h = 0; h < H; ++h) {
     const int t = s.twin[static_cast<std::size_t>(h)];
     if (t < 0) {
@@ -282,6 +316,9 @@ std::vector<char> layout_cuts(const Surface& s, const std::set<Id>& common_edges
     double best = std::numeric_limits<double>::infinity(), best_length = 0;
     std::size_t best_path = m.paths.size();
     for (std::size_t q = 0; q < m.paths.size(); ++q) {
+      // No segment of a path whose box lies farther than `best` can replace it (the scan keeps
+      // the first of equal distances), so the path is skipped without changing the result.
+      if (box_distance(boxes[q], mid) > best * (1 + 1e-12)) continue;
       const std::vector<double>& pl = m.paths[q].polyline;
       for (std::size_t i = 0; i + 3 < pl.size(); i += 3) {
         double u;

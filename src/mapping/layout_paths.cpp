@@ -68,13 +68,26 @@ std::vector<OneSidedEdge> one_sided_edges(const mesh::Sample& source, const mesh
 int vertex_at(const Surface& s, const double* p, double tolerance) {
   int best = -1;
   double best_d = tolerance;
-  for (std::uint32_t v : s.sample->triangles) {
+  // The nearest vertex within the tolerance, the smallest index among equally near ones (the
+  // same whatever order the candidates come in).
+  auto consider = [&](std::uint32_t v) {
     const double d = distance(s.position(v), p);
     if (d <= best_d && (best < 0 || d < best_d || static_cast<int>(v) < best)) {
       best_d = d;
       best = static_cast<int>(v);
     }
+  };
+  if (s.by_x.empty()) {
+    for (std::uint32_t v : s.sample->triangles) consider(v);
+    return best;
   }
+  // Candidates: the vertices whose x lies within the tolerance of p's, with twice its width
+  // (plus rounding) as margin, since a vertex within the tolerance in 3-D is within it in x.
+  const double reach = 2 * tolerance + 1e-12 * (std::fabs(p[0]) + tolerance);
+  const auto x_of = [&s](std::uint32_t v) { return s.sample->vertices[3 * std::size_t(v)]; };
+  auto it = std::lower_bound(s.by_x.begin(), s.by_x.end(), p[0] - reach,
+                             [&](std::uint32_t v, double x) { return x_of(v) < x; });
+  for (; it != s.by_x.end() && x_of(*it) <= p[0] + reach; ++it) consider(*it);
   return best;
 }
 

@@ -81,7 +81,7 @@ TEST(LayoutPaths, PathsRoundAHoleOnDifferentSidesDoNotRunAlike) {
   }
   src_over.push_back(s1);
   for (auto* c : {&can_over, &can_fine, &can_under}) c->push_back(moved(10, 0));
-  const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
+  const mapping::Surface ss{&src, {}, {}, {}, {}}, cs{&can, {}, {}, {}, {}};
   EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_over));
   EXPECT_TRUE(mapping::paths_run_alike(ss, src_over, cs, can_fine));
   EXPECT_TRUE(mapping::paths_run_alike(cs, can_over, ss, src_over));
@@ -100,7 +100,7 @@ TEST(LayoutPaths, SlackAcceptsAPathBentByTheMesh) {
   mesh::Sample src, can;
   src.vertices = {53.16, 0, 40, 56.45, -2.65, 40, 60, 0, 40};
   can.vertices = {55.27, 0, 40, 60, 0, 40};
-  const mapping::Surface ss{&src, {}, {}, {}}, cs{&can, {}, {}, {}};
+  const mapping::Surface ss{&src, {}, {}, {}, {}}, cs{&can, {}, {}, {}, {}};
   const std::vector<std::uint32_t> bent{0, 1, 2}, straight{0, 1};
   EXPECT_FALSE(mapping::paths_run_alike(ss, bent, cs, straight));
   EXPECT_FALSE(mapping::paths_run_alike(ss, bent, cs, straight, 2.0));
@@ -109,3 +109,41 @@ TEST(LayoutPaths, SlackAcceptsAPathBentByTheMesh) {
 }
 
 }  // namespace
+
+// vertex_at through the surface's vertices sorted by x (build_surface) finds what a scan of every
+// triangle corner finds: the nearest vertex within the tolerance, the smallest index among equally
+// near ones (two vertices at one position here), -1 where none is within it.
+TEST(LayoutPaths, VertexAtByXAgreesWithAFullScan) {
+  mesh::Sample m;
+  m.feasible = true;
+  // A 6 x 6 grid of squares in z = 0, with vertex 36 a copy of vertex 14.
+  for (int j = 0; j <= 6; ++j)
+    for (int i = 0; i <= 6; ++i)
+      for (double c : {0.5 * i, 0.5 * j, 0.0}) m.vertices.push_back(c);
+  m.vertices.insert(m.vertices.end(), {m.vertices[42], m.vertices[43], m.vertices[44]});
+  for (std::uint32_t j = 0; j < 6; ++j)
+    for (std::uint32_t i = 0; i < 6; ++i) {
+      const std::uint32_t v = 7 * j + i;
+      m.triangles.insert(m.triangles.end(), {v, v + 1, v + 8, v, v + 8, v + 7});
+    }
+  m.triangles[3 * 12 + 1] = 36;  // one corner of vertex 14 refers to its copy
+  m.triangle_tags.assign(m.triangles.size() / 3, 1);
+  mapping::Surface indexed;
+  std::string why;
+  ASSERT_TRUE(mapping::build_surface(m, indexed, why)) << why;
+  ASSERT_FALSE(indexed.by_x.empty());
+  const mapping::Surface scanned{&m, {}, {}, {}, {}};
+  int found = 0;
+  for (int k = 0; k < 400; ++k) {
+    const double p[3] = {-0.2 + 0.0091 * k, 1.0 + 0.3 * std::sin(k), 0.01 * std::cos(3 * k)};
+    for (double tol : {1e-9, 0.05, 0.3}) {
+      const int a = mapping::vertex_at(indexed, p, tol), b = mapping::vertex_at(scanned, p, tol);
+      EXPECT_EQ(a, b) << k << " " << tol;
+      found += a >= 0 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(found, 100);
+  // Exactly at the duplicated position: the smaller index.
+  EXPECT_EQ(mapping::vertex_at(indexed, &m.vertices[42], 1e-9), 14);
+  EXPECT_EQ(mapping::vertex_at(scanned, &m.vertices[42], 1e-9), 14);
+}

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <numeric>
 
@@ -80,8 +81,29 @@ bool measure_loop(const Surface& s, const std::vector<const double*>& anchor_pos
     l.s[i + 1] = l.s[i] + distance(s.position(l.vertices[i]), s.position(l.vertices[(i + 1) % n]));
   // An anchor at a loop vertex is found at every visit of that vertex (a seam's vertices are
   // visited twice, once per side); one between vertices (rounding) at its nearest segment.
+  // The loop's box, widened by the tolerance: an anchor outside it is neither at a loop vertex
+  // nor within the tolerance of a segment, so it is skipped without a scan of the loop.
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = std::numeric_limits<double>::infinity();
+    hi[k] = -std::numeric_limits<double>::infinity();
+  }
+  for (std::uint32_t v : l.vertices)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], s.position(v)[k]);
+      hi[k] = std::max(hi[k], s.position(v)[k]);
+    }
+  const double reach = 2 * tolerance;
+  auto outside = [&](const double* p) {
+    for (int k = 0; k < 3; ++k) {
+      const double r = reach + 1e-12 * std::fabs(p[k]);
+      if (p[k] < lo[k] - r || p[k] > hi[k] + r) return true;
+    }
+    return false;
+  };
   std::vector<std::pair<double, int>> found;
   for (std::size_t m = 0; m < anchor_positions.size(); ++m) {
+    if (outside(anchor_positions[m])) continue;
     bool at_vertex = false;
     for (std::size_t i = 0; i < n; ++i)
       if (distance(anchor_positions[m], s.position(l.vertices[i])) <= tolerance) {

@@ -1,5 +1,6 @@
 #include "mapping/surface.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -17,6 +18,13 @@ bool build_surface(const mesh::Sample& s, Surface& out, std::string& why) {
   out.out_edges.assign(static_cast<std::size_t>(H), 0);
   std::vector<int> fill(out.out_start.begin(), out.out_start.end() - 1);
   for (int h = 0; h < H; ++h) out.out_edges[static_cast<std::size_t>(fill[out.from(h)]++)] = h;
+  out.by_x.clear();
+  for (std::size_t v = 0; v < V; ++v)
+    if (out.out_start[v + 1] > out.out_start[v]) out.by_x.push_back(static_cast<std::uint32_t>(v));
+  std::sort(out.by_x.begin(), out.by_x.end(), [&s](std::uint32_t a, std::uint32_t b) {
+    const double xa = s.vertices[3 * std::size_t(a)], xb = s.vertices[3 * std::size_t(b)];
+    return xa < xb || (xa == xb && a < b);
+  });
   // An oriented manifold has each directed edge at most once.
   for (int h = 0; h < H; ++h) {
     if (out.half_edge(out.from(h), out.to(h)) != h) {

@@ -24,6 +24,9 @@ struct Surface {
   std::vector<int> twin;  ///< per half-edge: the opposite half-edge, -1 on an open border
   /// Vertex v's outgoing half-edges are out_edges[out_start[v] .. out_start[v + 1]).
   std::vector<int> out_start, out_edges;
+  /// The boundary vertices (those of some triangle) once each, by x coordinate, then index:
+  /// vertex_at (layout_paths.h) looks points up among them.
+  std::vector<std::uint32_t> by_x;
   /// The half-edge from a to b, or -1.
   int half_edge(std::uint32_t a, std::uint32_t b) const {
     for (int i = out_start[a]; i < out_start[a + 1]; ++i)

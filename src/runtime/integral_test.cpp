@@ -11,20 +11,13 @@
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "format/synthetic_asset.h"
+#include "opened_asset_test_util.h"
 
 namespace {
 
 using cadinterp::format::SyntheticSpec;
 
-struct Opened {
-  std::vector<std::uint8_t> bytes;
-  cadinterp_asset* asset = nullptr;
-  cadinterp_workspace* ws = nullptr;
-  ~Opened() {
-    cadinterp_workspace_destroy(ws);
-    cadinterp_close(asset);
-  }
-};
+using cadinterp::runtime_test::Opened;
 
 std::unique_ptr<Opened> open_synthetic(int K, cadinterp::core::Degree degree) {
   SyntheticSpec s;
@@ -32,12 +25,7 @@ std::unique_ptr<Opened> open_synthetic(int K, cadinterp::core::Degree degree) {
   s.degree = degree;
   s.tolerance = 2e-3;
   s.max_samples = 120;
-  auto o = std::make_unique<Opened>();
-  const auto synthetic = cadinterp::format::make_synthetic_asset(s);
-  o->bytes = cadinterp::format::write_asset(synthetic.content, {});
-  EXPECT_EQ(cadinterp_open_memory(o->bytes.data(), o->bytes.size(), 0, &o->asset), CADINTERP_OK);
-  EXPECT_EQ(cadinterp_workspace_create(o->asset, &o->ws), CADINTERP_OK);
-  return o;
+  return cadinterp::runtime_test::open_synthetic(s);
 }
 
 // The integral by an independent route: the evaluated mesh and its field, summed here.

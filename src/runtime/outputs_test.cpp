@@ -14,21 +14,15 @@
 #include "cadinterp/cadinterp.h"
 #include "format/asset_writer.h"
 #include "format/synthetic_asset.h"
+#include "opened_asset_test_util.h"
 
 namespace {
 
 using cadinterp::core::Degree;
 using cadinterp::format::SyntheticSpec;
-
-struct Opened {
-  std::vector<std::uint8_t> bytes;
-  cadinterp_asset* asset = nullptr;
-  cadinterp_workspace* ws = nullptr;
-  ~Opened() {
-    cadinterp_workspace_destroy(ws);
-    cadinterp_close(asset);
-  }
-};
+using cadinterp::runtime_test::open_content;
+using cadinterp::runtime_test::open_synthetic;
+using cadinterp::runtime_test::Opened;
 
 SyntheticSpec spec(int K, Degree degree, bool outputs, bool infeasible = false) {
   SyntheticSpec s;
@@ -42,15 +36,6 @@ SyntheticSpec spec(int K, Degree degree, bool outputs, bool infeasible = false) 
   s.outputs = outputs;
   s.infeasible_corner = infeasible;
   return s;
-}
-
-std::unique_ptr<Opened> open_synthetic(const SyntheticSpec& s) {
-  auto o = std::make_unique<Opened>();
-  o->bytes = cadinterp::format::write_asset(cadinterp::format::make_synthetic_asset(s).content, {});
-  EXPECT_EQ(cadinterp_open_memory(o->bytes.data(), o->bytes.size(), 0, &o->asset), CADINTERP_OK)
-      << cadinterp_open_error();
-  EXPECT_EQ(cadinterp_workspace_create(o->asset, &o->ws), CADINTERP_OK);
-  return o;
 }
 
 TEST(Outputs, NamesLookupAndMinor) {
@@ -94,10 +79,9 @@ TEST(Outputs, SameWeightsAsTheMeshAndExactGradients) {
         ASSERT_TRUE(cadinterp::format::synthetic_host(s, xk, pos, fld));
         a.content.outputs[0].values[static_cast<std::size_t>(k)] = pos[3 * v + 2];
       }
-      Opened o;
-      o.bytes = cadinterp::format::write_asset(a.content, {});
-      ASSERT_EQ(cadinterp_open_memory(o.bytes.data(), o.bytes.size(), 0, &o.asset), CADINTERP_OK);
-      ASSERT_EQ(cadinterp_workspace_create(o.asset, &o.ws), CADINTERP_OK);
+      const auto opened = open_content(a.content);
+      ASSERT_NE(opened->ws, nullptr);
+      const Opened& o = *opened;
       std::mt19937_64 rng(5);
       std::uniform_real_distribution<double> u(0.05, 0.95);
       for (int p = 0; p < 30; ++p) {

@@ -10,7 +10,6 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -19,9 +18,11 @@
 
 #include "cadinterp/cadinterp_builder.h"
 #include "host_library.h"
+#include "host_request_codec.h"
 #include "host_worker_protocol.h"
 
 namespace wp = cadinterp::tools::worker_protocol;
+namespace rc = cadinterp::tools::request_codec;
 
 namespace {
 
@@ -60,48 +61,19 @@ bool send(wp::Type type, const void* payload, std::size_t size) {
 
 bool send_text(wp::Type type, const std::string& s) { return send(type, s.data(), s.size()); }
 
-// Reads `count` values of T from the payload at *offset; false when it would run past its end.
-template <typename T>
-bool take(const std::vector<std::uint8_t>& payload, std::size_t* offset, std::uint64_t count,
-          std::vector<T>* out) {
-  if (count > (payload.size() - *offset) / sizeof(T)) return false;
-  out->resize(static_cast<std::size_t>(count));
-  if (count > 0) std::memcpy(out->data(), payload.data() + *offset, count * sizeof(T));
-  *offset += static_cast<std::size_t>(count) * sizeof(T);
-  return true;
-}
-
 // Answers one request; false when the request is malformed (the worker then stops: the parent
-// and the worker disagree about the protocol).
-bool answer(const cadinterp_host& host, std::uint32_t type,
-            const std::vector<std::uint8_t>& payload) {
-  const auto k = static_cast<std::size_t>(host.parameter_count);
-  std::size_t offset = 0;
-  std::vector<double> x;
-  if (!take(payload, &offset, k, &x)) return false;
+// and the worker disagree about the protocol, and it says so on stderr).
+bool answer(const cadinterp_host& host, const std::vector<std::uint8_t>& payload) {
+  rc::Request request;
+  const rc::DecodeError e = rc::decode(payload.data(), payload.size(),
+                                       static_cast<std::size_t>(host.parameter_count), &request);
+  if (e != rc::DecodeError::kNone) {
+    std::fprintf(stderr, "cadinterp-host-worker: %s\n", rc::describe(e));
+    return false;
+  }
   void* bytes = nullptr;
   size_t size = 0;
-  cadinterp_status s;
-  if (type == wp::kSample) {
-    if (offset != payload.size()) return false;
-    s = cadinterp_host_evaluate_serialized(&host, x.data(), &bytes, &size);
-  } else {
-    std::vector<std::uint64_t> counts;
-    std::vector<double> vertices;
-    std::vector<std::uint32_t> tets, triangles;
-    std::vector<std::int32_t> tags;
-    if (!take(payload, &offset, 3, &counts) ||
-        std::any_of(counts.begin(), counts.end(),
-                    [&payload](std::uint64_t c) { return c > payload.size(); }) ||
-        !take(payload, &offset, 3 * counts[0], &vertices) ||
-        !take(payload, &offset, 4 * counts[1], &tets) ||
-        !take(payload, &offset, 3 * counts[2], &triangles) ||
-        !take(payload, &offset, counts[2], &tags) || offset != payload.size())
-      return false;
-    const cadinterp_host_mesh mesh{counts[0], vertices.data(),  counts[1],  tets.data(),
-                                   counts[2], triangles.data(), tags.data()};
-    s = cadinterp_host_simulate_serialized(&host, x.data(), &mesh, &bytes, &size);
-  }
+  const cadinterp_status s = rc::answer(host, request, &bytes, &size);
   if (s != CADINTERP_OK)
     return send_text(wp::kError, "the worker could not evaluate the host (status " +
                                      std::to_string(static_cast<int>(s)) + ")");
@@ -142,10 +114,9 @@ int main(int argc, char** argv) {
     if (!read_full(h, sizeof h)) return 0;  // the parent closed its end
     std::uint32_t type = 0;
     std::uint64_t size = 0;
-    if (!wp::parse_header(h, &type, &size) || (type != wp::kSample && type != wp::kSimulate))
-      return 3;
+    if (!wp::parse_header(h, &type, &size) || type != wp::kRequest) return 3;
     std::vector<std::uint8_t> payload(static_cast<std::size_t>(size));
     if (!read_full(payload.data(), payload.size())) return 0;
-    if (!answer(*host, type, payload)) return 3;
+    if (!answer(*host, payload)) return 3;
   }
 }

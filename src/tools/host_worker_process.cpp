@@ -14,6 +14,7 @@
 #include <csignal>
 #include <cstring>
 
+#include "host_request_codec.h"
 #include "host_worker_protocol.h"
 
 namespace cadinterp::tools {
@@ -145,22 +146,9 @@ bool HostWorker::send_all(const void* p, std::size_t n) {
 }
 
 bool HostWorker::send(const std::vector<double>& x, const cadinterp_host_mesh* mesh) {
-  std::vector<std::uint8_t> payload(x.size() * sizeof(double));
-  std::memcpy(payload.data(), x.data(), payload.size());
-  auto append = [&payload](const void* p, std::size_t n) {
-    const auto* b = static_cast<const std::uint8_t*>(p);
-    payload.insert(payload.end(), b, b + n);
-  };
-  if (mesh) {
-    const std::uint64_t counts[3] = {mesh->vertex_count, mesh->tet_count, mesh->triangle_count};
-    append(counts, sizeof counts);
-    append(mesh->vertices, 3 * mesh->vertex_count * sizeof(double));
-    append(mesh->tets, 4 * mesh->tet_count * sizeof(std::uint32_t));
-    append(mesh->triangles, 3 * mesh->triangle_count * sizeof(std::uint32_t));
-    append(mesh->triangle_tags, mesh->triangle_count * sizeof(std::int32_t));
-  }
-  const std::vector<std::uint8_t> h =
-      wp::header(mesh ? wp::kSimulate : wp::kSample, payload.size());
+  const std::vector<std::uint8_t> payload = request_codec::encode(
+      mesh ? CADINTERP_REQUEST_SIMULATE : CADINTERP_REQUEST_SAMPLE, x.data(), x.size(), mesh);
+  const std::vector<std::uint8_t> h = wp::header(wp::kRequest, payload.size());
   busy_ = true;
   return send_all(h.data(), h.size()) && send_all(payload.data(), payload.size());
 }

@@ -5,9 +5,8 @@
 // Frame: uint32 magic, uint32 type, uint64 payload size, payload.
 //   worker -> parent, once at start:  kHello (host name, '\0', identity) or kError (message; the
 //                                      worker then exits)
-//   parent -> worker:                 kSample (K doubles x) or kSimulate (K doubles x, then the
-//                                      mesh: uint64 #V #T #F, 3#V doubles, 4#T uint32, 3#F
-//                                      uint32, #F int32)
+//   parent -> worker:                 kRequest (the bytes of request_codec::encode,
+//                                      host_request_codec.h)
 //   worker -> parent, per request:    kResult (the bytes of cadinterp_host_evaluate_serialized /
 //                                      cadinterp_host_simulate_serialized) or kError (message)
 // The parent closes its end to stop a worker; a worker that reads end-of-file exits with 0.
@@ -22,7 +21,7 @@
 namespace cadinterp::tools::worker_protocol {
 
 constexpr std::uint32_t kMagic = 0x31574943;  // "CIW1"
-enum Type : std::uint32_t { kHello = 1, kError = 2, kSample = 3, kSimulate = 4, kResult = 5 };
+enum Type : std::uint32_t { kHello = 1, kError = 2, kRequest = 3, kResult = 5 };
 constexpr std::size_t kHeaderSize = 16;
 /// Largest payload either end accepts (a corrupt size must not become a huge allocation).
 constexpr std::uint64_t kMaxPayload = std::uint64_t{1} << 34;

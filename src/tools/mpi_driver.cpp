@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "cadinterp/cadinterp.h"
+#include "host_request_codec.h"
 
 namespace cadinterp::tools::mpi {
 
@@ -26,8 +27,7 @@ namespace {
 enum Tag : int {
   kHello = 1,       // rank -> 0: name, identity and K of the host it loaded
   kLoadFailed = 2,  // rank -> 0: why it could not load the host
-  kSample = 3,      // 0 -> rank: K doubles x (CADINTERP_REQUEST_SAMPLE)
-  kSimulate = 4,    // 0 -> rank: x and a mesh (CADINTERP_REQUEST_SIMULATE), see pack_simulate
+  kRequest = 3,     // 0 -> rank: a request, request_codec::encode's bytes (host_request_codec.h)
   kResult = 5,      // rank -> 0: the serialized sample
   kFailed = 6,      // rank -> 0: int32 status, then a message (no bytes could be produced)
   kStop = 7         // 0 -> rank: no more requests
@@ -93,55 +93,6 @@ void send_text(const std::string& text, int to, int tag) {
 std::string host_description(const cadinterp_host* host) {
   return std::string(host->name ? host->name : "") + " '" + (host->identity ? host->identity : "") +
          "' (" + std::to_string(host->parameter_count) + " parameters)";
-}
-
-// A CADINTERP_REQUEST_SIMULATE request as one message: three uint64 counts (vertices, tets,
-// triangles), x (K doubles), vertices (3V doubles), tets (4T uint32), triangles (3F uint32), tags
-// (F int32). Doubles first, so every array is aligned in the 8-byte aligned receive buffer.
-std::size_t simulate_size(std::size_t k, std::size_t v, std::size_t t, std::size_t f) {
-  return 3 * sizeof(std::uint64_t) + (k + 3 * v) * sizeof(double) + (4 * t + 3 * f) * 4 + f * 4;
-}
-
-void pack_simulate(const cadinterp_build_request& r, std::vector<std::uint64_t>& out) {
-  const cadinterp_host_mesh& m = *r.mesh;
-  const std::size_t k = static_cast<std::size_t>(r.parameter_count);
-  const std::size_t bytes = simulate_size(k, m.vertex_count, m.tet_count, m.triangle_count);
-  out.assign(bytes / 8 + 1, 0);
-  auto* p = reinterpret_cast<unsigned char*>(out.data());
-  const std::uint64_t counts[3] = {m.vertex_count, m.tet_count, m.triangle_count};
-  const auto put = [&p](const void* data, std::size_t n) {
-    if (n > 0) std::memcpy(p, data, n);
-    p += n;
-  };
-  put(counts, sizeof counts);
-  put(r.x, k * sizeof(double));
-  put(m.vertices, 3 * m.vertex_count * sizeof(double));
-  put(m.tets, 4 * m.tet_count * 4);
-  put(m.triangles, 3 * m.triangle_count * 4);
-  put(m.triangle_tags, m.triangle_count * 4);
-}
-
-/// Reads pack_simulate's layout in place; false when `size` does not match it.
-bool unpack_simulate(const std::vector<std::uint64_t>& in, std::size_t size, std::size_t k,
-                     const double** x, cadinterp_host_mesh* m) {
-  if (size < 3 * sizeof(std::uint64_t)) return false;
-  const std::uint64_t v = in[0], t = in[1], f = in[2];
-  // Each count is bounded by the message size before any product is formed.
-  if (v > size || t > size || f > size || simulate_size(k, v, t, f) != size) return false;
-  const auto* p = reinterpret_cast<const unsigned char*>(in.data()) + 3 * sizeof(std::uint64_t);
-  *x = reinterpret_cast<const double*>(p);
-  p += k * sizeof(double);
-  m->vertex_count = v;
-  m->vertices = reinterpret_cast<const double*>(p);
-  p += 3 * v * sizeof(double);
-  m->tet_count = t;
-  m->tets = reinterpret_cast<const std::uint32_t*>(p);
-  p += 4 * t * 4;
-  m->triangle_count = f;
-  m->triangles = reinterpret_cast<const std::uint32_t*>(p);
-  p += 3 * f * 4;
-  m->triangle_tags = reinterpret_cast<const std::int32_t*>(p);
-  return true;
 }
 
 struct SessionDestroyer {
@@ -273,17 +224,9 @@ bool Dispatcher::dispatch() {
     if (in_flight_[rank] != 0) continue;
     const cadinterp_build_request r = queue_.front();
     queue_.pop_front();
-    if (r.kind == CADINTERP_REQUEST_SIMULATE) {
-      std::vector<std::uint64_t> packed;
-      pack_simulate(r, packed);
-      send_bytes(packed.data(),
-                 simulate_size(static_cast<std::size_t>(r.parameter_count), r.mesh->vertex_count,
-                               r.mesh->tet_count, r.mesh->triangle_count),
-                 static_cast<int>(rank), kSimulate);
-    } else {
-      send_bytes(r.x, static_cast<std::size_t>(r.parameter_count) * sizeof(double),
-                 static_cast<int>(rank), kSample);
-    }
+    const std::vector<std::uint8_t> bytes =
+        request_codec::encode(r.kind, r.x, static_cast<std::size_t>(r.parameter_count), r.mesh);
+    send_bytes(bytes.data(), bytes.size(), static_cast<int>(rank), kRequest);
     in_flight_[rank] = r.id;
     any = true;
   }
@@ -314,22 +257,21 @@ void check_ranks(const World& world, const cadinterp_host* host) {
 /// One request on a rank: the serialized sample, or a kFailed message when there are no bytes.
 void answer(const cadinterp_host* host, int tag, const std::vector<std::uint64_t>& request,
             std::size_t size) {
-  const std::size_t k = static_cast<std::size_t>(host->parameter_count);
   void* bytes = nullptr;
   std::size_t n = 0;
   cadinterp_status s = CADINTERP_E_INVALID_ARGUMENT;
-  std::string message = "a request this rank cannot read (another cadinterp version on rank 0?)";
-  if (tag == kSample && size == k * sizeof(double)) {
-    s = cadinterp_host_evaluate_serialized(host, reinterpret_cast<const double*>(request.data()),
-                                           &bytes, &n);
-    message = "cadinterp_host_evaluate_serialized failed";
-  } else if (tag == kSimulate) {
-    const double* x = nullptr;
-    cadinterp_host_mesh mesh{};
-    if (unpack_simulate(request, size, k, &x, &mesh)) {
-      s = cadinterp_host_simulate_serialized(host, x, &mesh, &bytes, &n);
-      message = "cadinterp_host_simulate_serialized failed";
-    }
+  std::string message = "a message this rank cannot read (another cadinterp version on rank 0?)";
+  request_codec::Request decoded;
+  const request_codec::DecodeError e =
+      tag == kRequest
+          ? request_codec::decode(request.data(), size,
+                                  static_cast<std::size_t>(host->parameter_count), &decoded)
+          : request_codec::DecodeError::kWrongKind;
+  if (e != request_codec::DecodeError::kNone) {
+    message = std::string(request_codec::describe(e)) + ": " + message;
+  } else {
+    s = request_codec::answer(*host, decoded, &bytes, &n);
+    message = "the host's serialized answer failed";
   }
   if (s == CADINTERP_OK && n <= static_cast<std::size_t>(INT_MAX)) {
     send_bytes(bytes, n, 0, kResult);
