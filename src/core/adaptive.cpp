@@ -1,3 +1,9 @@
+// The adaptive driver (paper §4.2). Why one file of over 800 lines: AdaptiveDriver's steps (the
+// wave's points, its error queries, the probes for the split direction, the refinement toward the
+// feasibility boundary, the split) all read and write one state (tree, basis, point rows,
+// per-node direction estimates, queue) within a wave; spread over files they would pass that
+// state around. The seams if it grows: the direction probes (lazy_face_centres) and the
+// feasibility refinement, each a group of member functions below.
 #include "core/adaptive.h"
 
 #include <algorithm>
