@@ -13,6 +13,10 @@
 // fuzz_open_eval, so mutations reach the index checks and the decoders.
 //
 // Build and run: scripts/fuzz.sh [SECONDS] (seeds: conformance/cases/*/*/asset.cadi).
+//
+// Why one file of over 800 lines: it holds one contract check per entry point of cadinterp.h,
+// side by side in the header's order, so that a declaration added there gets its check next to
+// its neighbours'; splitting by entry point would scatter the shared script and trailer parsing.
 // One file past 800 lines: a libFuzzer target is one program, its checks one contract.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <xxhash.h>
