@@ -273,7 +273,10 @@ typedef struct cadinterp_progress {
 
 /** Progress callback: return nonzero to cancel the build (cadinterp_builder_run then returns
  * CADINTERP_E_CANCELLED; the samples finished so far stay in the store). Called from the thread
- * that runs cadinterp_builder_run, after each finished sample and each refinement wave (a
+ * that runs cadinterp_builder_run, after each finished sample and each refinement wave, then
+ * while the elements are mapped (every sample done, none queued, eta_seconds for the element
+ * stage) between the terms that thread maps, so that a cancel takes effect within about one
+ * mapping or one round of canonical refinement (a
  * session: see "Build sessions"); it must not call cadinterp_builder_* functions on the builder
  * that is running. */
 typedef int (*cadinterp_progress_fn)(void* user, const cadinterp_progress* progress);

@@ -728,4 +728,32 @@ TEST(BuildReport, IsFilledWhenTheStoreFailsOrTheBuildIsCancelled) {
   EXPECT_GT(seen, 0);
 }
 
+// The element stage asks the callback too (between terms, on the calling thread): cancelled at
+// the last call of a whole build, the build stops after its sampling finished, with every sample
+// evaluated and no asset.
+TEST(BuildReport, TheElementStageCanBeCancelled) {
+  BoxHost h(2);
+  const mesh::Host host(h.host);
+  builder::BuildOptions o = small_build_options();
+  o.threads = 1;  // one thread: the same calls in the same order on both builds
+  int seen = 0, cancel_at = -1, after_sampling = 0;
+  o.progress = [&](const cadinterp_progress& p) {
+    after_sampling += p.samples_queued == 0 ? 1 : 0;
+    return ++seen == cancel_at;
+  };
+  builder::BuildReport whole;
+  builder::build(host, o, &whole);
+  ASSERT_GT(whole.counts.elements, 1);
+  EXPECT_GT(after_sampling, whole.counts.elements);  // at least one call per element
+  cancel_at = seen;
+  seen = 0;
+  builder::BuildReport rep;
+  EXPECT_THROW(builder::build(host, o, &rep), builder::BuildCancelled);
+  EXPECT_EQ(seen, cancel_at);
+  EXPECT_EQ(rep.failure, "build cancelled");
+  EXPECT_EQ(rep.counts.elements, whole.counts.elements);
+  EXPECT_EQ(rep.counts.host_evaluations, whole.counts.host_evaluations);
+  EXPECT_GT(rep.elements_seconds, 0.0);
+}
+
 }  // namespace

@@ -4,6 +4,8 @@
 #include "builder/element_stage.h"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iterator>
@@ -11,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "builder/stage_report.h"
 #include "format/error_model.h"
@@ -102,14 +105,19 @@ class ElementStage {
   const Sample* run() {
     for (int r = 0; r < problem_.rows(); ++r) rows_by_point_.emplace(problem_.point(r), r);
     std::vector<ElementTally> tallies(leaves_.size());
-    mapping::parallel_for(tallies.size(), exec_.concurrency(),
-                          [&](std::size_t e) { build_element(e, tallies[e]); });
+    mapping::parallel_for(tallies.size(), exec_.concurrency(), [&](std::size_t e) {
+      poll();
+      build_element(e, tallies[e]);
+      ++elements_done_;
+    });
     const Sample* field_source = nullptr;
     for (std::size_t e = 0; e < tallies.size(); ++e) merge(e, tallies[e], field_source);
     return field_source;
   }
 
  private:
+  bool stop_requested();
+  void poll();
   void build_element(std::size_t e, ElementTally& tally);
   void merge(std::size_t e, ElementTally& tally, const Sample*& field_source);
   bool map_term(std::size_t e, int leaf, int crow, int k, std::unique_ptr<MappedSample>& bridged,
@@ -143,7 +151,31 @@ class ElementStage {
   const int K_;
   const bool cubic_;
   std::map<std::vector<double>, int> rows_by_point_;  // the rows' x, exactly as evaluated
+  const std::thread::id caller_ = std::this_thread::get_id();
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  std::atomic<int> elements_done_{0};
+  std::atomic<bool> cancelled_{false};
 };
+
+// Progress and cancellation between terms (an element of a cubic 5-D asset maps hundreds of
+// terms, minutes of work on CAD meshes). The callback may run only on the builder's calling
+// thread (cadinterp_progress_fn), which builds elements too, so that thread reports; the others
+// see its answer through cancelled_ and stop at their next term. The samples are all stored
+// already, so a cancel loses only the element stage's own work.
+bool ElementStage::stop_requested() {
+  if (std::this_thread::get_id() == caller_ && !cancelled_) {
+    const int done = elements_done_.load();
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+    const double left = static_cast<double>(leaves_.size()) - done;
+    if (problem_.report_stage_progress(done > 0 ? s / done * left : -1.0)) cancelled_ = true;
+  }
+  return cancelled_;
+}
+
+void ElementStage::poll() {
+  if (stop_requested()) throw BuildCancelled();
+}
 
 // Element e (leaves_[e]): its terms, the canonical refinement where they depart from their own
 // boundaries, and its record (kept in the tally, refused or not).
@@ -160,8 +192,10 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
   // Per term: nullptr where the term's view (direct mapping or identity) is used, else its
   // sample carried from a neighbour element through a shared sample (§5.3).
   std::vector<std::unique_ptr<MappedSample>> bridged(static_cast<std::size_t>(n));
-  for (int t = 0; ok && t < n; ++t)
+  for (int t = 0; ok && t < n; ++t) {
+    poll();
     ok = map_term(e, leaf, crow, terms[t], bridged[static_cast<std::size_t>(t)], tally);
+  }
   Sample refined;
   std::vector<MappedSample> remapped;
   bool use_refined = false;
@@ -170,6 +204,7 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
   if (ok && opt_.canonical_refinement > 0 &&
       std::none_of(bridged.begin(), bridged.end(), [](const auto& b) { return b != nullptr; }))
     use_refined = refine(crow, terms, n, refined, remapped, tally);
+  poll();
   tally.ok = ok;
   if (!ok) return;
   const Sample& canon = use_refined ? refined : problem_.sample(crow);
@@ -393,6 +428,7 @@ bool ElementStage::refine(int crow, const int* terms, int n, Sample& refined,
   ro.tolerance = tolerance;
   ro.rounds = opt_.canonical_refinement;
   ro.threads = std::max(1, exec_.concurrency());
+  ro.cancelled = [this] { return stop_requested(); };
   mapping::RefineStats rs;
   std::string why;
   if (!mapping::refine_canonical(sources, canon, problem_.mapper(), refined, remapped, why, &rs,

@@ -24,7 +24,9 @@ namespace cadinterp::builder {
 /// Elements (and, inside one, its canonical refinement) are built on exec.concurrency() threads;
 /// each fills its own record and counts, merged in element order, so the content, the counts
 /// and the reasons recorded do not depend on the thread count. Exceptions from a worker (e.g.
-/// std::bad_alloc) are rethrown here once every worker has stopped.
+/// std::bad_alloc) are rethrown here once every worker has stopped. opt.progress is called on the
+/// calling thread between terms (every sample done, none queued, the stage's ETA); when it
+/// returns true, BuildCancelled is thrown once every worker has stopped at its next term.
 const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
                            MeshProblem& problem, const core::AdaptiveRun& run,
                            const core::CompiledBasis& cb, const std::vector<int>& leaves,

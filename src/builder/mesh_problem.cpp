@@ -285,16 +285,25 @@ void MeshProblem::errors(const std::vector<ErrorQuery>& q, std::vector<double>& 
 }
 
 bool MeshProblem::report_progress(int queued) {
+  const int evaluated = report_.host_evaluations;
+  return send_progress(
+      queued, evaluated > 0 && queued > 0
+                  ? host_seconds_done_ / evaluated * queued / std::max(1, exec_.concurrency())
+                  : (queued > 0 ? -1.0 : 0.0));
+}
+
+bool MeshProblem::report_stage_progress(double eta_seconds) {
+  return send_progress(0, eta_seconds);
+}
+
+bool MeshProblem::send_progress(int queued, double eta_seconds) {
   if (!opt_.progress) return false;
   cadinterp_progress p{};
   p.samples_done = done_;
   p.samples_queued = queued;
   p.elements = elements_;
   p.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
-  const int evaluated = report_.host_evaluations;
-  p.eta_seconds = evaluated > 0 && queued > 0
-                      ? host_seconds_done_ / evaluated * queued / std::max(1, exec_.concurrency())
-                      : (queued > 0 ? -1.0 : 0.0);
+  p.eta_seconds = eta_seconds;
   return opt_.progress(p);
 }
 

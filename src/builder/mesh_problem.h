@@ -101,6 +101,9 @@ class MeshProblem final : public core::AdaptiveProblem {
 
   /// Calls the progress callback; returns true to cancel.
   bool report_progress(int queued);
+  /// Calls the progress callback for a stage after sampling (every sample done, none queued)
+  /// with `eta_seconds` left (< 0: unknown); returns true to cancel.
+  bool report_stage_progress(double eta_seconds);
 
  private:
   static constexpr std::size_t kMapCacheBytes = std::size_t(512) << 20;
@@ -108,6 +111,7 @@ class MeshProblem final : public core::AdaptiveProblem {
   // Rows with identical meshes (vertex count, tets, triangles, tags) share a class: the identity
   // mapping holds between them. Classes are numbered in row order, so deterministically.
   int combinatorics_class(const Sample& s);
+  bool send_progress(int queued, double eta_seconds);
 
   const Host& host_;
   const BuildOptions& opt_;

@@ -191,6 +191,11 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
     std::vector<std::string> whys(sources.size());
     std::vector<char> ok(sources.size(), 1);
     parallel_for(sources.size(), options.threads, [&](std::size_t i) {
+      if (options.cancelled && options.cancelled()) {
+        ok[i] = 0;
+        whys[i] = "cancelled";
+        return;
+      }
       if (own[i]) {
         mesh::Sample b = *sources[i];
         for (const auto& edges : history) b = bisect_edges(b, edges);

@@ -15,6 +15,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,10 @@ struct RefineOptions {
   double max_growth = 0.5;
   /// Sources mapped in parallel on this many threads (the result does not depend on it).
   int threads = 1;
+  /// Asked before each source is mapped, on the thread that maps it (so it must be safe to call
+  /// concurrently); once it returns true no further source is mapped and the round under way is
+  /// not kept (RefineStats::stopped ends in "cancelled"). Empty: never.
+  std::function<bool()> cancelled;
 };
 
 struct RefineStats {

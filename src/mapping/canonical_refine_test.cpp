@@ -163,6 +163,26 @@ TEST(CanonicalRefine, CoarseCanonicalUnderABendFallsBelowTheTolerance) {
     EXPECT_EQ(mapped2[0].fields, mapped[0].fields);
     // The canonical's own term stays on its own surface.
     EXPECT_LT(mapping::mapped_departure(canonical, refined, mapped[1].vertices, 0, nullptr), 1e-3);
+    // Cancelled: before the first mapping, refinement fails by name; after the two mappings onto
+    // the original canonical, the round under way is dropped and the original kept.
+    mapping::RefineOptions cancel;
+    int asked = 0, allowed = 0;
+    cancel.cancelled = [&] { return ++asked > allowed; };
+    mesh::Sample refined3;
+    std::vector<mesh::MappedSample> mapped3;
+    EXPECT_FALSE(mapping::refine_canonical({&source, &canonical}, canonical, mapper, refined3,
+                                           mapped3, why, nullptr, cancel));
+    EXPECT_EQ(why, "cancelled");
+    asked = 0;
+    allowed = 2;
+    mapped3.clear();
+    ASSERT_TRUE(mapping::refine_canonical({&source, &canonical}, canonical, mapper, refined3,
+                                          mapped3, why, &stats, cancel));
+    EXPECT_EQ(stats.rounds, 0);
+    EXPECT_NE(stats.stopped.find("cancelled"), std::string::npos) << stats.stopped;
+    EXPECT_EQ(refined3.vertices, canonical.vertices);
+    ASSERT_EQ(mapped3.size(), 2u);
+    EXPECT_EQ(mapped3[0].vertices, direct.vertices);
   }
 }
 
