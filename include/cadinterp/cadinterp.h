@@ -321,6 +321,20 @@ CADINTERP_API cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset
                                                            uint32_t* triangle_count);
 
 /**
+ * The number of terms of element `element` (as cadinterp_locate returns it): the samples whose
+ * basis functions the element blends (paper eq. 4), so one cadinterp_eval or cadinterp_grad in
+ * it reads that many stored meshes (terms x (#V x 3 positions + #V values per scalar field)
+ * floats). Read from the index without decoding anything. An infeasible element still reports
+ * its terms (it stores no meshes).
+ * @param[in]  element  0 <= element < cadinterp_element_count(asset)
+ * @param[out] terms    the count (required)
+ * @return CADINTERP_OK; CADINTERP_E_INVALID_ARGUMENT if asset or terms is NULL or element is out
+ *         of range (`*terms` untouched). Thread-safety: safe (reads the immutable index).
+ */
+CADINTERP_API cadinterp_status cadinterp_element_term_count(const cadinterp_asset* asset,
+                                                            int element, int* terms);
+
+/**
  * The estimated geometric error at x: the symmetric Hausdorff distance between the boundary
  * surface cadinterp_eval returns and the host's own at x, relative to the bounding-box diagonal
  * of the host's mesh at x. It is cadinterp_error_estimates' out[0]; see there for how it is

@@ -264,6 +264,15 @@ cadinterp_status cadinterp_element_mesh_size(const cadinterp_asset* a, int eleme
   return CADINTERP_OK;
 }
 
+cadinterp_status cadinterp_element_term_count(const cadinterp_asset* a, int element, int* terms) {
+  if (!a || !terms || element < 0 || element >= a->reader->basis().element_count())
+    return CADINTERP_E_INVALID_ARGUMENT;
+  int n = 0;
+  a->reader->basis().element_samples(element, &n);
+  *terms = n;
+  return CADINTERP_OK;
+}
+
 namespace {
 
 // The estimates of cadinterp_error_estimates at x (element e feasible) into out (1 + #fields

@@ -20,9 +20,11 @@
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
 #include "capi/capi_guard.h"
+#include "core/compiled_basis.h"
 #include "format/asset_reader.h"
 #include "format/synthetic_asset.h"
 #include "runtime/mesh_metrics.h"
+#include "runtime/runtime_objects.h"
 
 namespace {
 
@@ -326,6 +328,48 @@ TEST(Runtime, ElementMeshSizeSizesGradArraysBeforeEval) {
   EXPECT_EQ(cadinterp_element_mesh_size(nullptr, 0, &nv, nullptr, nullptr),
             CADINTERP_E_INVALID_ARGUMENT);
   EXPECT_EQ(nv, 7u);
+}
+
+// An element's term count is the number of meshes an evaluation in it blends: the position
+// blobs its index record stores, one per basis function of the element, and those basis
+// functions are complete (a partition of unity at any point of the element).
+TEST(Runtime, ElementTermCountIsTheMeshesAnEvaluationBlends) {
+  for (const auto degree : {cadinterp::core::Degree::Linear, cadinterp::core::Degree::Cubic}) {
+    SyntheticSpec s = spec(2, degree);
+    s.infeasible_corner = true;
+    const auto o = open_synthetic(s);
+    const cadinterp::core::CompiledBasis& basis = o->asset->reader->basis();
+    cadinterp::core::EvalWorkspace ws = basis.make_workspace();
+    int feasible_seen = 0;
+    for (int e = 0; e < cadinterp_element_count(o->asset); ++e) {
+      int terms = -1;
+      ASSERT_EQ(cadinterp_element_term_count(o->asset, e, &terms), CADINTERP_OK);
+      EXPECT_GE(terms, 4);  // at least the 2^K corners' functions
+      // A point inside the element, off its centre.
+      std::vector<double> lo(2), hi(2), x(2);
+      basis.element_box(e, lo.data(), hi.data());
+      for (std::size_t d = 0; d < 2; ++d) x[d] = lo[d] + (d ? 0.5 : 0.3) * (hi[d] - lo[d]);
+      cadinterp::core::BasisWeights w;
+      basis.eval_element(e, x.data(), ws, false, &w);
+      EXPECT_EQ(w.count, terms);
+      double sum = 0;
+      for (int t = 0; t < w.count; ++t) sum += w.psi[t];
+      EXPECT_NEAR(sum, 1.0, 1e-12) << "element " << e;
+      const auto* rec = o->asset->reader->index().elements()->Get(static_cast<unsigned>(e));
+      if (rec->vertex_count() == 0) continue;  // infeasible: no meshes
+      ++feasible_seen;
+      ASSERT_NE(rec->positions(), nullptr);
+      EXPECT_EQ(static_cast<int>(rec->positions()->size()), terms);
+    }
+    EXPECT_GT(feasible_seen, 1);
+    int terms = 7;
+    EXPECT_EQ(cadinterp_element_term_count(o->asset, -1, &terms), CADINTERP_E_INVALID_ARGUMENT);
+    EXPECT_EQ(cadinterp_element_term_count(o->asset, cadinterp_element_count(o->asset), &terms),
+              CADINTERP_E_INVALID_ARGUMENT);
+    EXPECT_EQ(cadinterp_element_term_count(nullptr, 0, &terms), CADINTERP_E_INVALID_ARGUMENT);
+    EXPECT_EQ(cadinterp_element_term_count(o->asset, 0, nullptr), CADINTERP_E_INVALID_ARGUMENT);
+    EXPECT_EQ(terms, 7);
+  }
 }
 
 // Central differences of eval, inside one element (the cubic asset is C2 anyway).
