@@ -11,7 +11,8 @@
 # The sample store (OUT_DIR/press3.store) makes a second run skip every host call of the build.
 # Environment: SAMPLES (default 96), MESH_SIZE (default 24: quadratic tets at this size are
 # within 0.2 % of beam theory on the spine, examples/hosts/occt/README.md), THREADS (default 2),
-# HOST_GRID (points per free parameter on the host, default 3).
+# HOST_GRID (points per free parameter on the host, default 3). Last, optimize_bench --press
+# measures the tall use case on the asset (OUT_DIR/bench.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-build/figure21}
@@ -85,3 +86,11 @@ for name in ("tall", "short"):
           f'{d["objective"]:.4g} | {true_obj} | {d["constraints"][0]["value"]:.5g} / {true_vol} | '
           f'{gtxt} | {htxt} | {d["iterations"]} it, {d["evaluations"]} evals, {d["status"]} |')
 PY
+
+# The benchmark of the tall use case on this asset (mesh quantities against per-sample outputs,
+# one evaluation against one cadinterp_grad and a memcpy of its bytes, one host evaluation).
+bench=./build/release/src/optimize/optimize_bench
+if [ -x "$bench" ]; then
+  "$bench" --press="$out/press3.cadi" --press-host="$host" --press-host-options="$hopts" \
+    --benchmark_min_time=0.5 | tee "$out/bench.txt"
+fi
