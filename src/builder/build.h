@@ -93,6 +93,9 @@ struct BuildOptions {
   /// cadinterp_build_options::infeasible_call_fraction: failed points allowed for the refinement
   /// toward infeasible regions, as a fraction of max_samples (negative: no bound).
   double infeasible_call_fraction = 0.25;
+  /// cadinterp_build_options::lazy_face_centres: the core's lazy face-centre test
+  /// (core::AdaptiveOptions::lazy_face_centres), the direction inherited without a limit.
+  bool lazy_face_centres = false;
 };
 
 /// A point where the host failed, with its message.

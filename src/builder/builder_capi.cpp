@@ -351,6 +351,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   bo.simulate_mapped = o.simulate_mapped != 0;
   bo.canonical_refinement = o.canonical_refinement;
   bo.infeasible_call_fraction = o.infeasible_call_fraction;
+  bo.lazy_face_centres = o.lazy_face_centres != 0;
   if (!std::isfinite(bo.infeasible_call_fraction))
     throw std::invalid_argument("options: infeasible_call_fraction must be finite");
   if (bo.canonical_refinement < 0 || bo.canonical_refinement > 20)

@@ -71,25 +71,30 @@ std::vector<Model> table_models(const std::string& bracket_options) {
 }
 
 // Host calls per kept sample and the error measured against the host (not the driver's own
-// estimate), one build per model at the figures' defaults.
+// estimate), one build per model and face-centre test (all, lazy: the build option
+// lazy_face_centres) at the figures' defaults.
 // `only`: one model's row (empty: all).
 int host_calls_table(const std::string& bracket_options, int points, const std::string& only,
                      const std::string& path) {
-  std::printf("model      samples  host calls  calls/sample  geometry max  field max  wall s\n");
+  std::printf(
+      "model      faces  samples  host calls  calls/sample  geometry max  field max  wall s\n");
   for (const Model& m : table_models(bracket_options)) {
     if (!only.empty() && only != m.name) continue;
     const char* model = m.name;
     const cadinterp_host* host = analytic_host(model, m.options);
     if (!host) return 1;
     const mesh::Host h(*host);
-    cadinterp_build_options o = figure_options();
-    o.threads = 1;
-    const Run r = build(host, o, path);
-    const builder::AccuracyReport a = builder::measure_accuracy(path, h, points, 7);
-    std::printf("%-10s %7d  %10d  %12.2f  %12.2e  %9.2e  %6.2f\n", model, r.report.samples,
-                r.report.host_evaluations,
-                static_cast<double>(r.report.host_evaluations) / std::max(1, r.report.samples),
-                a.geometry_max, a.field_max, r.seconds);
+    for (int lazy : {0, 1}) {
+      cadinterp_build_options o = figure_options();
+      o.threads = 1;
+      o.lazy_face_centres = lazy;
+      const Run r = build(host, o, path);
+      const builder::AccuracyReport a = builder::measure_accuracy(path, h, points, 7);
+      std::printf("%-10s %-5s  %7d  %10d  %12.2f  %12.2e  %9.2e  %6.2f\n", model,
+                  lazy ? "lazy" : "all", r.report.samples, r.report.host_evaluations,
+                  static_cast<double>(r.report.host_evaluations) / std::max(1, r.report.samples),
+                  a.geometry_max, a.field_max, r.seconds);
+    }
   }
   std::filesystem::remove(path);
   return 0;

@@ -124,7 +124,7 @@ struct BuilderDestroyer {
 struct BuildArgs {
   cadinterp_build_options o;
   std::string host_spec, model, host_options, store, output, degree;
-  bool quiet = false, simulate_mapped = false, calling_thread = false;
+  bool quiet = false, simulate_mapped = false, calling_thread = false, lazy_faces = false;
   bool mpi = false;  // --mpi (the MPI block below)
   // --isolate (isolated_driver.h)
   bool isolate = false;
@@ -173,6 +173,10 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            "fraction of --max-samples (negative: no bound;\n0: elements with a failed point "
            "are never split)",
            &o.infeasible_call_fraction, -1, 1e6);
+  p.flag("lazy-face-centres", 0,
+         "for budget-bound builds: test an element's face centres only once\nit passes at "
+         "those already answered (fewer host calls per sample)",
+         &a.lazy_faces);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
   // --mpi: the MPI block below.
@@ -465,6 +469,7 @@ int cmd_build(const std::vector<std::string>& args) {
   o.degree = std::stoi(a.degree);
   o.simulate_mapped = a.simulate_mapped ? 1 : 0;
   o.host_on_calling_thread = a.calling_thread ? 1 : 0;
+  o.lazy_face_centres = a.lazy_faces ? 1 : 0;
   if (!a.store.empty()) o.store_path = a.store.c_str();
 
   LoadedHost host;
