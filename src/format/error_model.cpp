@@ -33,4 +33,10 @@ double error_model_max(const double* row, int K, bool cubic) {
   return m;
 }
 
+double error_model_reported(double est, bool cubic, bool geometry) {
+  if (!(est >= 0)) return -1.0;
+  const double v = est * (cubic ? kErrorModelSafetyCubic : kErrorModelSafetyLinear);
+  return geometry ? std::max(v, kGeometryFloor) : v;
+}
+
 }  // namespace cadinterp::format

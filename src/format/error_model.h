@@ -37,4 +37,9 @@ double error_model_estimate(const double* row, int K, bool cubic, const double* 
 /// The largest value of error_model_estimate over the element (at its centre).
 double error_model_max(const double* row, int K, bool cubic);
 
+/// What cadinterp_error_estimates reports for an unscaled estimate `est` of a quantity: -1 when
+/// it is unknown (negative), else est times the degree's safety factor, and for the geometry no
+/// less than kGeometryFloor.
+double error_model_reported(double est, bool cubic, bool geometry);
+
 }  // namespace cadinterp::format

@@ -291,14 +291,12 @@ void estimates_at(const cadinterp_asset* a, int e, const double* x, double* out,
   basis.element_box(e, lo, hi);
   for (int d = 0; d < K; ++d) t[d] = (x[d] - lo[d]) / (hi[d] - lo[d]);
   const bool cubic = basis.degree() == cadinterp::core::Degree::Cubic;
-  for (int q = 0; q < count; ++q) {
-    const double est = cadinterp::format::error_model_estimate(
-        model->data() + static_cast<std::size_t>(q) * static_cast<std::size_t>(K + 1), K, cubic, t);
-    out[q] = est < 0 ? -1.0
-                     : est * (cubic ? cadinterp::format::kErrorModelSafetyCubic
-                                    : cadinterp::format::kErrorModelSafetyLinear);
-  }
-  if (out[0] >= 0) out[0] = std::max(out[0], cadinterp::format::kGeometryFloor);
+  for (int q = 0; q < count; ++q)
+    out[q] = cadinterp::format::error_model_reported(
+        cadinterp::format::error_model_estimate(
+            model->data() + static_cast<std::size_t>(q) * static_cast<std::size_t>(K + 1), K, cubic,
+            t),
+        cubic, q == 0);
 }
 
 }  // namespace

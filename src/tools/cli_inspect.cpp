@@ -18,6 +18,7 @@
 #include "cli_common.h"
 #include "format/asset_reader.h"
 #include "format/codec.h"
+#include "format/error_model.h"
 #include "json_writer.h"
 
 namespace cadinterp::cli {
@@ -83,6 +84,9 @@ struct AssetSummary {
   // Depth per direction: splits are at midpoints, so an element's unit width is 2^-depth.
   std::vector<Stat> depth;
   Stat terms, verts, tets, tris, err;
+  // Per field (FieldDesc order): the largest estimate over each element, relative to the
+  // field's range, as cadinterp_error_estimates reports it.
+  std::vector<Stat> field_err;
   std::vector<int> infeasible;
   std::uint64_t stored_meshes = 0;
   std::map<BlobKey, BlobTotal> blobs;
@@ -99,6 +103,7 @@ void tally_elements(const format::AssetReader& reader, AssetSummary& s) {
   const auto& parts = basis.parts();
   const int K = s.K;
   s.depth.assign(static_cast<std::size_t>(K), Stat());
+  s.field_err.assign(idx.fields() ? idx.fields()->size() : 0, Stat());
   std::set<std::pair<std::uint64_t, std::uint64_t>> seen_blobs;  // (offset, size)
   const std::size_t fields_per_vertex = reader.field_values_per_vertex();
   const std::size_t fields_per_tet = reader.field_values_per_tet();
@@ -119,7 +124,20 @@ void tally_elements(const format::AssetReader& reader, AssetSummary& s) {
     s.verts.add(static_cast<double>(V));
     s.tets.add(static_cast<double>(T));
     s.tris.add(static_cast<double>(F));
-    if (em->error_estimate() >= 0) s.err.add(em->error_estimate());
+    // The largest estimate cadinterp_error_estimates gives in the element, per quantity (format
+    // 1.3: the error model, scaled as the runtime scales it); before, the stored geometry one.
+    const bool cubic = basis.degree() == cadinterp::core::Degree::Cubic;
+    const auto* model = em->error_model();
+    const std::size_t W = static_cast<std::size_t>(K) + 1;
+    if (model && model->size() == W * (1 + s.field_err.size())) {
+      for (std::size_t q = 0; q <= s.field_err.size(); ++q) {
+        const double v = format::error_model_reported(
+            format::error_model_max(model->data() + q * W, K, cubic), cubic, q == 0);
+        if (v >= 0) (q ? s.field_err[q - 1] : s.err).add(v);
+      }
+    } else if (em->error_estimate() >= 0) {
+      s.err.add(em->error_estimate());
+    }
     auto add = [&](const char* kind, const fb::BlobRef* b, std::uint64_t raw) {
       if (!b) return;
       // The index stores format::Codec's values (asset_writer.cpp), so the name is the codec's.
@@ -236,6 +254,14 @@ void print_json(const AssetSummary& s) {
   w.end_object();
   w.key("error_estimate").begin_object().field("measured", s.err.n);
   if (s.err.n) w.field("min", s.err.min).field("mean", s.err.mean()).field("max", s.err.max);
+  w.key("fields").begin_array();
+  for (std::size_t f = 0; f < s.field_err.size() && f < s.fields.size(); ++f) {
+    const Stat& e = s.field_err[f];
+    w.begin_object().field("name", s.fields[f].name).field("measured", e.n);
+    if (e.n) w.field("min", e.min).field("mean", e.mean()).field("max", e.max);
+    w.end_object();
+  }
+  w.end_array();
   w.end_object();
   w.field("position_max_abs_error", static_cast<double>(s.idx->position_max_abs_error()));
   w.key("blobs").begin_array();
@@ -327,10 +353,16 @@ void print_text_contents(const AssetSummary& s) {
   std::printf("  triangles  %s (total %.0f)\n", stat_text(s.tris).c_str(), s.tris.sum);
   if (s.err.n)
     std::printf(
-        "  error est. min %.3g, mean %.3g, max %.3g (geometry, bbox diagonals; %llu measured)\n",
+        "  error est. geometry: min %.3g, mean %.3g, max %.3g (of the bbox diagonal; %llu "
+        "measured)\n",
         s.err.min, s.err.mean(), s.err.max, static_cast<unsigned long long>(s.err.n));
   else
     std::printf("  error est. not measured\n");
+  for (std::size_t f = 0; f < s.field_err.size() && f < s.fields.size(); ++f)
+    if (s.field_err[f].n)
+      std::printf("  error est. %s: min %.3g, mean %.3g, max %.3g (of its range)\n",
+                  s.fields[f].name.c_str(), s.field_err[f].min, s.field_err[f].mean(),
+                  s.field_err[f].max);
   const float pos_err = s.idx->position_max_abs_error();
   std::printf("  positions  %s\n",
               pos_err > 0 ? fmt("lossy, max abs error %g", static_cast<double>(pos_err)).c_str()

@@ -199,6 +199,16 @@ build_with() {  # build_with TAG HOST
     done
     run 0 "build_${tag}_inspect" -- inspect "$out" --json &&
       python3 -m json.tool "$WORK/build_${tag}_inspect.out" >/dev/null || fail "inspect of a built asset"
+    # Every field has its estimates, measured on the elements the geometry's were (format 1.3).
+    python3 - "$WORK/build_${tag}_inspect.out" <<'EOF' || fail "inspect $tag: field error estimates"
+import json, sys
+d = json.load(open(sys.argv[1]))
+e = d["error_estimate"]
+assert e["measured"] > 0, e
+assert [f["name"] for f in e["fields"]] == [f["name"] for f in d["fields"]], e
+for f in e["fields"]:
+    assert f["measured"] == e["measured"] and 0 <= f["min"] <= f["mean"] <= f["max"], f
+EOF
     # Evaluate at the centre of the box the asset declares.
     local x
     x=$(json_get "$WORK/build_${tag}_inspect.out" \
