@@ -221,10 +221,13 @@ typedef struct cadinterp_optimize_result {
   size_t struct_size; /**< sizeof(cadinterp_optimize_result), set by the caller */
   int parameter_count;
   int constraint_count;
-  const double* x;              /**< K values: the optimum (a point the runtime evaluates) */
-  double objective;             /**< at x */
-  const double* constraints;    /**< constraint_count values at x */
-  double constraint_violation;  /**< largest distance of a constraint outside its bounds */
+  const double* x;           /**< K values: the optimum (a point the runtime evaluates) */
+  double objective;          /**< at x */
+  const double* constraints; /**< constraint_count values at x */
+  /** Largest distance of a constraint outside its bounds, in its units. The solve treats a
+   * constraint as met within 1e-6 of its bound's magnitude (at least 1): Ipopt sees each constraint
+   * divided by that magnitude, so feasibility does not depend on its units. */
+  double constraint_violation;
   double gradient_norm;         /**< 2-norm of the objective's gradient over free parameters */
   double optimality;            /**< Ipopt's final scaled dual infeasibility (KKT error) */
   int converged;                /**< nonzero when Ipopt reports an optimum (to tol or acceptable) */

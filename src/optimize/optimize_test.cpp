@@ -289,6 +289,34 @@ void constrained_and_fixed(int degree) {
 TEST(Optimize, ActiveConstraintAndFixedParameterLinear) { constrained_and_fixed(1); }
 TEST(Optimize, ActiveConstraintAndFixedParameterCubic) { constrained_and_fixed(3); }
 
+// A constraint of large magnitude (a volume in mm^3 is 1e5-1e6): the same active constraint as
+// above in units 1e8 times smaller. Feasibility is judged relative to a constraint's size (an
+// absolute tolerance lies below the float noise of a large blended quantity: on the press Ipopt
+// then reported "the constraints appear infeasible" at a point that met them), so the solve does
+// not depend on the constraint's units: the same x*, and the constraint met to 1e-6 of its bound.
+TEST(Optimize, ConstraintsOfLargeMagnitudeConverge) {
+  const OpenedAsset* a = asset(3, 3);
+  ASSERT_TRUE(a);
+  // x* and the constraint's value per solve (the result's arrays live as long as its problem).
+  std::vector<double> x[2], value(2), violation(2);
+  const char* constraints[2] = {"volume >= 1.4", "1e8 * volume >= 1.4e8"};
+  for (int k = 0; k < 2; ++k) {
+    Problem p(a->asset);
+    ASSERT_EQ(cadinterp_optimize_parse(p, 0, "integral(q)"), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_optimize_parse_constraint(p, constraints[k], nullptr), CADINTERP_OK);
+    cadinterp_optimize_result r{};
+    r.struct_size = sizeof r;
+    ASSERT_EQ(cadinterp_optimize_solve(p, nullptr, &r), CADINTERP_OK);
+    EXPECT_TRUE(r.converged) << constraints[k] << ": " << r.status;
+    x[k].assign(r.x, r.x + 3);
+    value[static_cast<std::size_t>(k)] = r.constraints[0];
+    violation[static_cast<std::size_t>(k)] = r.constraint_violation;
+  }
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_NEAR(x[1][i], x[0][i], 1e-9) << "x" << i;
+  EXPECT_GE(value[1], 1.4e8 * (1 - 1e-6));
+  EXPECT_LE(violation[1], 1.4e8 * 1e-6);
+}
+
 // The host fails where x0 > 0.75 and x1 > 0.75, and the minimizer of the top integral lies in
 // that corner: the optimizer ends at a point the runtime evaluates, and every iterate is one.
 TEST(Optimize, InfeasibleCornerIsAWall) {

@@ -59,17 +59,32 @@ const char* status_words(int s) {
 // Ipopt's "no bound" beyond +-1e19 (nlp_lower_bound_inf, nlp_upper_bound_inf).
 double ipopt_bound(double b) { return std::isinf(b) ? std::copysign(2e19, b) : b; }
 
-double violation(const Problem& p, const std::vector<double>& values) {
+// Constraint j's scale: its bounds' magnitude (at least 1). Ipopt sees g_j / scale and bounds
+// / scale, so that its absolute feasibility tolerance (constr_viol_tol, 1e-4) is relative to
+// the constraint's size: a volume of 5e5 mm^3 blended from float meshes carries a noise of
+// ~1e-3 mm^3, which an absolute 1e-4 never meets (Ipopt then reports the constraints
+// infeasible at a point that meets them).
+double constraint_scale(const Problem& p, int j) {
+  double s = 1.0;
+  for (const double b : {p.function(j).lower, p.function(j).upper})
+    if (std::isfinite(b)) s = std::max(s, std::fabs(b));
+  return s;
+}
+
+// The largest violation of a constraint, in its units (relative: divided by its scale).
+double violation(const Problem& p, const std::vector<double>& values, bool relative = false) {
   double v = 0.0;
   for (int j = 1; j < p.function_count(); ++j) {
     const double g = values[static_cast<std::size_t>(j)];
-    v = std::max({v, p.function(j).lower - g, g - p.function(j).upper});
+    const double d = std::max(p.function(j).lower - g, g - p.function(j).upper);
+    v = std::max(v, relative ? d / constraint_scale(p, j) : d);
   }
   return v;
 }
 
-// Whether (objective f, violation v) is better than (bf, bv): feasible for the constraints
-// first (to Ipopt's default constraint tolerance), then lowest objective, else least violation.
+// Whether (objective f, relative violation v) is better than (bf, bv): feasible for the
+// constraints first (to Ipopt's constraint tolerance and below), then lowest objective, else
+// least violation.
 bool better(double f, double v, double bf, double bv) {
   const double tol = 1e-6;
   if ((v <= tol) != (bv <= tol)) return v <= tol;
@@ -85,7 +100,9 @@ class Nlp : public Ipopt::TNLP {
         full_(std::move(start)),
         free_(p.free_parameters()),
         K_(p.parameter_count()),
-        m_(p.function_count() - 1) {}
+        m_(p.function_count() - 1) {
+    for (int j = 1; j < p.function_count(); ++j) scale_.push_back(constraint_scale(p, j));
+  }
 
   bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h,
                     IndexStyleEnum& style) override {
@@ -102,8 +119,8 @@ class Nlp : public Ipopt::TNLP {
       xu[i] = p_.upper()[static_cast<std::size_t>(free_[static_cast<std::size_t>(i)])];
     }
     for (Index j = 0; j < m; ++j) {
-      gl[j] = ipopt_bound(p_.function(j + 1).lower);
-      gu[j] = ipopt_bound(p_.function(j + 1).upper);
+      gl[j] = ipopt_bound(p_.function(j + 1).lower / scale_[static_cast<std::size_t>(j)]);
+      gu[j] = ipopt_bound(p_.function(j + 1).upper / scale_[static_cast<std::size_t>(j)]);
     }
     return true;
   }
@@ -125,12 +142,13 @@ class Nlp : public Ipopt::TNLP {
     // Gradients are asked for at accepted iterates only: the path's next point.
     path_x_ = full_;
     path_f_ = values_[0];
-    path_v_ = violation(p_, values_);
+    path_v_ = violation(p_, values_, true);
     return true;
   }
   bool eval_g(Index, const Number* x, bool, Index m, Number* g) override {
     if (!at(x, false)) return false;
-    for (Index j = 0; j < m; ++j) g[j] = values_[static_cast<std::size_t>(j) + 1];
+    for (Index j = 0; j < m; ++j)
+      g[j] = values_[static_cast<std::size_t>(j) + 1] / scale_[static_cast<std::size_t>(j)];
     return true;
   }
   bool eval_jac_g(Index n, const Number* x, bool, Index m, Index, Index* row, Index* col,
@@ -145,7 +163,8 @@ class Nlp : public Ipopt::TNLP {
     for (Index j = 0; j < m; ++j)
       for (Index i = 0; i < n; ++i)
         v[j * n + i] = grads_[(static_cast<std::size_t>(j) + 1) * K +
-                              static_cast<std::size_t>(free_[static_cast<std::size_t>(i)])];
+                              static_cast<std::size_t>(free_[static_cast<std::size_t>(i)])] /
+                       scale_[static_cast<std::size_t>(j)];
     return true;
   }
   bool intermediate_callback(Ipopt::AlgorithmMode mode, Index iter, Number, Number inf_pr,
@@ -232,6 +251,7 @@ class Nlp : public Ipopt::TNLP {
   std::vector<double> full_;
   std::vector<int> free_;
   int K_, m_;
+  std::vector<double> scale_;  // per constraint: constraint_scale
   std::vector<double> values_, grads_, path_x_;
   double path_f_ = 0, path_v_ = 0;
   bool have_values_ = false, have_grads_ = false, ok_ = false;
@@ -274,6 +294,11 @@ bool run_start(Problem& p, const cadinterp_optimize_options& o, int index,
   // so a run that stalls near tol for a few iterations ends as "acceptable".
   opt.SetNumericValue("acceptable_tol", std::max(1e-4, o.tolerance));
   opt.SetIntegerValue("acceptable_iter", 10);
+  // Constraints reach Ipopt divided by their scale (constraint_scale): feasible means within
+  // 1e-6 of the bound's size, above the float noise of a blended quantity (~1e-7 relative), at
+  // termination and at the looser "acceptable" level alike (Ipopt's default there is 1e-2).
+  opt.SetNumericValue("constr_viol_tol", 1e-6);
+  opt.SetNumericValue("acceptable_constr_viol_tol", 1e-6);
   // The box is a wall: never evaluate outside it.
   opt.SetNumericValue("bound_relax_factor", 0.0);
   opt.SetStringValue("honor_original_bounds", "yes");
@@ -311,16 +336,18 @@ bool run_start(Problem& p, const cadinterp_optimize_options& o, int index,
   std::vector<double> values(static_cast<std::size_t>(p.function_count()));
   std::vector<double> grads(values.size() * K);
   bool found = false;
+  double best_v = 0;  // the relative violation at out->x
   for (const auto& x : candidates) {
     std::string ignored;
     if (p.evaluate(x.data(), values.data(), grads.data(), &ignored) != CADINTERP_OK) continue;
-    const double v = violation(p, values);
-    if (found && !better(values[0], v, out->objective, out->violation)) continue;
+    const double v = violation(p, values, true);
+    if (found && !better(values[0], v, out->objective, best_v)) continue;
     found = true;
+    best_v = v;
     out->x = x;
     out->objective = values[0];
     out->constraints.assign(values.begin() + 1, values.end());
-    out->violation = v;
+    out->violation = violation(p, values);
     double g2 = 0.0;
     for (int i : p.free_parameters())
       g2 += grads[static_cast<std::size_t>(i)] * grads[static_cast<std::size_t>(i)];
@@ -362,6 +389,7 @@ cadinterp_status solve(Problem& p, const cadinterp_optimize_options& o, Outcome*
   }
   bool have = false;
   Outcome best;
+  double best_v = 0;  // the relative violation at best.x
   int iterations = 0, evaluations = 0, refused = 0;
   for (std::size_t s = 0; s < starts.size(); ++s) {
     Outcome r;
@@ -370,13 +398,13 @@ cadinterp_status solve(Problem& p, const cadinterp_optimize_options& o, Outcome*
     evaluations += r.evaluations;
     refused += r.refused;
     r.best_start = static_cast<int>(s);
-    // Feasible for the constraints first (to Ipopt's constraint tolerance), then lowest.
-    const double tol = 1e-6;
-    const bool feasible = r.violation <= tol, best_feasible = best.violation <= tol;
-    if (!have || (feasible && !best_feasible) ||
-        (feasible == best_feasible &&
-         (feasible ? r.objective < best.objective : r.violation < best.violation))) {
+    // Feasible for the constraints first (relative to their scale), then lowest.
+    std::vector<double> at = {r.objective};
+    at.insert(at.end(), r.constraints.begin(), r.constraints.end());
+    const double v = violation(p, at, true);
+    if (!have || better(r.objective, v, best.objective, best_v)) {
       best = std::move(r);
+      best_v = v;
       have = true;
     }
   }
