@@ -31,7 +31,7 @@ mkdir -p "$out"
 # The fillet's range stops at 30 mm: fillets over 34.5 mm do not fit the throat of a 150 mm press,
 # and a cubic element's B-splines reach three samples along each direction, so on the model's
 # full range (5-40) every element of the 3^5 start grid depends on an infeasible sample and the
-# asset has no usable element (issue: feasible space of cubic assets).
+# asset has no usable element (src/optimize/README.md, "Known limits").
 hopts="mesh_size=$mesh,range=throat_fillet:5:30"
 start=$(date +%s)
 # The element stage alone takes about 15 minutes on 2 cores (32 cubic elements, each mapping its

@@ -1,4 +1,4 @@
-// The builder's own time on 1 and 2 threads (issue 32: parallel efficiency >= 0.8 on 2 threads),
+// The builder's own time on 1 and 2 threads (target: parallel efficiency >= 0.8 on 2 threads),
 // with an analytic host so fast that the builder, not the host, is what is timed:
 //   bracket  the builder figures' bracket (cells=6, 400 samples, cadinterp-builder-figures)
 //   refined  the bracket at two mesh resolutions across its bend angle (SplitHost), whose

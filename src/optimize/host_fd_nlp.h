@@ -1,6 +1,6 @@
 // The benchmark's reference run: the same optimization as on the asset, on the host itself,
 // with forward-difference gradients (free parameters + 1 host evaluations per gradient): the
-// speed-up the interpolant exists for (issue 28). Each evaluation runs the host's regenerate,
+// speed-up the interpolant exists for. Each evaluation runs the host's regenerate,
 // references and simulate (cadinterp_host_evaluate_serialized: the host's whole cost) and takes
 // the objective and a constraint lower <= g(x) from `outputs`, the closed forms the host writes
 // as its per-sample outputs (the sample's bytes are the builder's, not this module's to read).

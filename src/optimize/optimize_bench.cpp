@@ -1,4 +1,4 @@
-// One optimization end to end on an analytic asset shaped like the press use case (issue 28):
+// One optimization end to end on an analytic asset shaped like the press use case:
 // K = 4 parameters, cubic, two of them fixed ("height and width given"), the objective an
 // integral of a field under a volume limit. Once with quantities of the interpolated mesh
 // (integral(q), volume: a blend of the element's meshes per evaluation), once with the same

@@ -1,5 +1,5 @@
 // Runtime performance against the in-repo bandwidth probe, measured in the same run
-// (issue targets: eval <= 1.2x probe, eval+grad <= 1.5x eval, one scalar field <= 1.4x, cell
+// (targets: eval <= 1.2x probe, eval+grad <= 1.5x eval, one scalar field <= 1.4x, cell
 // switch <= 5 ms with the fast codec, open independent of blob bytes).
 //
 // Fixture: the synthetic box at 80 x 40 x 30 cells (103,361 vertices, 576,000 tets), K = 3,
