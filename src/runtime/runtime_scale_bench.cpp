@@ -1,4 +1,4 @@
-// Runtime at scale, against the in-repo bandwidth probe measured in the same run (issue targets:
+// Runtime at scale, against the in-repo bandwidth probe measured in the same run (targets:
 // a K = 3 cubic eval within 1.5x of bytes / bandwidth, eval+grad <= 1.5x eval, open <= 5 ms and
 // independent of blob bytes), and the blend kernels of blend_multi.h against the probe.
 //
