@@ -1,4 +1,4 @@
-// Quality of one mapping (the measured criteria), shared by the tests and
+// Quality of one mapping (the measured acceptance criteria), shared by the tests and
 // `cadinterp-mapping-report pairs`: boundary geometry, tet quality, boundary-condition region
 // areas, and field values against an independent truth at the mapped points.
 #pragma once

@@ -95,7 +95,7 @@ TEST(MeshMapper, SmoothReconstructionBringsTheBoundaryNearerCurvedFaces) {
       for (std::uint32_t v : canonical.triangles)
         off[smooth] = std::max(off[smooth], on.distance(&m.vertices[3 * v]));
     }
-    // Phong lifts a point off the chords by at most about their sag; the bound on the
+    // Phong lifts a point off the chords by at most about their sag; the target bound on the
     // boundary's distance is 1e-3 of the diagonal.
     std::printf(
         "[ figures ] bracket Hausdorff flat / smooth: %.3e / %.3e, off the source %.1e "
