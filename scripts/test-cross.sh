@@ -117,7 +117,8 @@ run_arm64() {
   # The runtime's tests and the codecs' (decoding on arm64); core's property tests take minutes
   # under emulation and exercise nothing platform-specific the runtime tests do not. No thread
   # tests: Debian 12's qemu-user hangs creating a thread here (docs/portability.md, "Known limits").
-  local tests=(src/runtime/runtime_tests src/runtime/runtime_names_tests
+  local tests=(src/runtime/runtime_tests src/runtime/runtime_element_queries_tests
+    src/runtime/runtime_names_tests
     src/runtime/runtime_alloc_tests src/runtime/runtime_blend_tests
     src/runtime/runtime_metrics_tests src/format/codec_tests)
   cmake --build "$dir" -j "$jobs" --target cadinterp cadinterp-conformance runtime_api_c99_test \

@@ -42,6 +42,16 @@ inline std::unique_ptr<Opened> open_content(const format::AssetContent& content)
   return o;
 }
 
+/// A small synthetic asset of K parameters and degree g: tolerance 2e-3, at most 200 samples.
+inline format::SyntheticSpec small_synthetic_spec(int K, core::Degree g) {
+  format::SyntheticSpec s;
+  s.K = K;
+  s.degree = g;
+  s.tolerance = 2e-3;
+  s.max_samples = 200;
+  return s;
+}
+
 /// open_content of the synthetic asset of `spec` (format/synthetic_asset.h).
 inline std::unique_ptr<Opened> open_synthetic(const format::SyntheticSpec& spec) {
   return open_content(format::make_synthetic_asset(spec).content);

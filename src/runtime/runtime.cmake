@@ -30,6 +30,9 @@ if(CADINTERP_BUILD_TESTING)
 
   cadinterp_add_test(runtime_tests ${CMAKE_CURRENT_LIST_DIR}/runtime_test.cpp
     LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
+  cadinterp_add_test(runtime_element_queries_tests
+    ${CMAKE_CURRENT_LIST_DIR}/element_queries_test.cpp
+    LIBS cadinterp cadinterp_format cadinterp_runtime_kernels)
   cadinterp_add_test(runtime_open_options_tests ${CMAKE_CURRENT_LIST_DIR}/open_options_test.cpp
     LIBS cadinterp cadinterp_format)
   cadinterp_add_test(runtime_integral_tests ${CMAKE_CURRENT_LIST_DIR}/integral_test.cpp
