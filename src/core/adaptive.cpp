@@ -256,6 +256,28 @@ class AdaptiveDriver {
                        [&](int k) { return rows_.feasible(basis_.sample(k)); });
   }
 
+  // The element's basis as the asset will evaluate it (CompiledBasis::compile decides alike):
+  // its own, or with corner_fallback the corner fallback of a cubic element whose terms reach an
+  // infeasible sample while its corners are feasible. `usable` says whether the returned basis'
+  // terms are all feasible; when not, the element's own basis is returned (its terms are what
+  // infeasible_split reads).
+  ElementBasis usable_basis(int leaf, bool* usable) {
+    ElementBasis eb = basis_.element_basis(leaf);
+    *usable = terms_feasible(eb);
+    if (*usable || !opt_.corner_fallback) return eb;
+    ElementBasis corners;
+    if (basis_.corner_fallback_basis(leaf, &corners) && terms_feasible(corners)) {
+      *usable = true;
+      return corners;
+    }
+    return eb;
+  }
+  bool usable(int leaf) {
+    bool ok = false;
+    usable_basis(leaf, &ok);
+    return ok;
+  }
+
   void face_centres(const KdTree::Node& node, std::vector<IPoint>& out) const {
     const IPoint c = centre_of(node, K_);
     for (int d = 0; d < K_; ++d)
@@ -335,8 +357,7 @@ class AdaptiveDriver {
     pts.clear();
     for (int leaf : wave) {
       const KdTree::Node& node = tree_.node(leaf);
-      if (rows_.feasible(centre_of(node, K_)) && terms_feasible(basis_.element_basis(leaf)))
-        face_centres(node, pts);
+      if (rows_.feasible(centre_of(node, K_)) && usable(leaf)) face_centres(node, pts);
     }
     if (opt_.check_face_centres && !opt_.reuse_face_centres && !opt_.lazy_face_centres)
       rows_.ensure(pts);
@@ -395,7 +416,8 @@ class AdaptiveDriver {
     std::vector<std::size_t> first;  // per leaf: its first query
     for (std::size_t l = 0; l < leaves.size(); ++l) {
       const int crow = rows_.row(centre_of(tree_.node(leaves[l]), K_));
-      const ElementBasis eb = basis_.element_basis(leaves[l]);
+      bool ok = false;
+      const ElementBasis eb = usable_basis(leaves[l], &ok);
       first.push_back(qs.size());
       for (const IPoint& p : at[l]) {
         bool pok = false;
@@ -449,7 +471,7 @@ class AdaptiveDriver {
     for (int leaf : wave) {
       const KdTree::Node& node = tree_.node(leaf);
       const IPoint c = centre_of(node, K_);
-      if (!rows_.feasible(c) || !terms_feasible(basis_.element_basis(leaf))) continue;
+      if (!rows_.feasible(c) || !usable(leaf)) continue;
       leaves.push_back(leaf);
       at.push_back({c});
       test_faces(node, at.back());
@@ -611,8 +633,9 @@ class AdaptiveDriver {
     bool centre_ok = false;
     const int crow = rows_.row(c, &centre_ok);
     res_.centre_row[static_cast<std::size_t>(leaf)] = crow;
-    const ElementBasis eb = basis_.element_basis(leaf);
-    const bool feasible = centre_ok && terms_feasible(eb);
+    bool terms_ok = false;
+    const ElementBasis eb = usable_basis(leaf, &terms_ok);
+    const bool feasible = centre_ok && terms_ok;
 
     int dir = -1;
     double err = std::numeric_limits<double>::infinity();
@@ -760,8 +783,9 @@ class AdaptiveDriver {
       // Leaves left unchecked by the budget still get an estimate: the error at their centre,
       // which is evaluated anyway (it is their canonical point).
       double& err = res_.leaf_error[static_cast<std::size_t>(leaf)];
-      const ElementBasis eb = basis_.element_basis(leaf);
-      if (!std::isnan(err) || !ok || !terms_feasible(eb)) continue;
+      bool terms_ok = false;
+      const ElementBasis eb = usable_basis(leaf, &terms_ok);
+      if (!std::isnan(err) || !ok || !terms_ok) continue;
       err = answer(error_query(eb, crow, c, crow));
     }
     res_.sample_row.resize(static_cast<std::size_t>(basis_.sample_count()));

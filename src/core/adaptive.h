@@ -80,6 +80,12 @@ struct AdaptiveOptions {
   /// wave's splits. Negative: no bound. Counted by point, not by host call, so that a resumed
   /// build (points read from a store) decides exactly as the first.
   int max_infeasible_points = -1;
+  /// Cubic bases: an element whose terms reach an infeasible sample but whose 2^K corners and
+  /// centre are feasible is usable through its corner fallback (Basis::corner_fallback_basis,
+  /// multilinear on its corners), tested and refined like any other element; the asset must be
+  /// compiled with the same choice (CompiledBasis::compile). Without it such an element is
+  /// refused, and a failed sample makes every cubic element within two widths unusable.
+  bool corner_fallback = true;
 };
 
 struct AdaptiveResult {

@@ -1,13 +1,17 @@
 // Refinement toward the feasibility boundary (AdaptiveOptions::refine_infeasible,
-// max_infeasible_points): the part of the box the compiled basis refuses stays close to the part
-// where the host truly fails, elements wholly inside the failing region are not split, and the
-// failed points respect their bound.
+// max_infeasible_points) and the cubic corner fallback (corner_fallback): the part of the box the
+// compiled basis refuses stays close to the part where the host truly fails, elements wholly
+// inside the failing region are not split, the failed points respect their bound, and a
+// fallback element interpolates its corners multilinearly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "core/adaptive.h"
 #include "core/compiled_basis.h"
+#include "core/core_test_util.h"
 
 namespace cadinterp::core {
 namespace {
@@ -20,27 +24,43 @@ bool fails(const double* x) {
   return (1 - x[0]) * (1 - x[0]) + (1 - x[1]) * (1 - x[1]) < kRadius * kRadius;
 }
 
+double host_value(const double* x) { return std::sin(3 * x[0]) * std::cos(2 * x[1]); }
+
 const HostFunction kHost = [](const double* x, double* v) {
   if (fails(x)) return false;
-  v[0] = std::sin(3 * x[0]) * std::cos(2 * x[1]);
+  v[0] = host_value(x);
   return true;
 };
 
 // Fractions of a 100 x 100 grid of cell centres that the basis refuses and where the host fails.
+
+// Also the largest interpolation error at the grid points the basis answers and the host too.
 struct Fractions {
-  double refused = 0, truth = 0;
+  double refused = 0, truth = 0, max_error = 0;
 };
 
-Fractions measure(const AdaptiveResult& r) {
+Fractions measure(const AdaptiveResult& r, bool corner_fallback = true) {
   const std::vector<double> lo{0, 0}, hi{1, 1};
-  const CompiledBasis cb = CompiledBasis::compile(r.basis, lo, hi, &r.infeasible);
+  const CompiledBasis cb = CompiledBasis::compile(r.basis, lo, hi, &r.infeasible, corner_fallback);
+  EvalWorkspace ws = cb.make_workspace();
   const int n = 100;
   Fractions f;
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) {
       const double x[2] = {(i + 0.5) / n, (j + 0.5) / n};
-      f.refused += cb.element_feasible(cb.locate(x)) ? 0 : 1;
+      const int e = cb.locate(x);
       f.truth += fails(x) ? 1 : 0;
+      if (!cb.element_feasible(e)) {
+        f.refused += 1;
+        continue;
+      }
+      if (fails(x)) continue;
+      BasisWeights w;
+      cb.eval_element(e, x, ws, false, &w);
+      double v = 0;
+      for (int t = 0; t < w.count; ++t)
+        v += w.psi[t] * r.values[static_cast<std::size_t>(w.samples[t])];
+      f.max_error = std::max(f.max_error, std::abs(v - host_value(x)));
     }
   f.refused /= n * n;
   f.truth /= n * n;
@@ -58,8 +78,7 @@ AdaptiveOptions options(Degree degree, int max_samples) {
 
 TEST(AdaptiveInfeasible, RefusedAreaApproachesTheFailingArea) {
   // Refused minus failing, measured on this host at 600 samples: linear 0.3 % of the box,
-  // cubic 1.6 % (its terms reach an element further, so it needs finer elements along the
-  // boundary).
+  // cubic 0.3 % with its corner fallback (1.6 % without: its terms reach an element further).
   for (Degree g : {Degree::Linear, Degree::Cubic}) {
     const int budget = 600;
     const AdaptiveResult r = adaptive_sample(2, 1, {0, 0}, {1, 1}, kHost, options(g, budget));
@@ -131,6 +150,66 @@ TEST(AdaptiveInfeasible, FeasibleEverywhereHostIsUnchangedByTheBound) {
   EXPECT_EQ(a.infeasible_calls, 0);
   EXPECT_EQ(a.basis.sample_count(), b.basis.sample_count());
   EXPECT_EQ(a.values, b.values);
+}
+
+TEST(AdaptiveInfeasible, CornerFallbackIsMultilinearOnItsCorners) {
+  for (int K : {2, 3}) {
+    std::mt19937_64 rng(5 + K);
+    Basis basis(K, Degree::Cubic);
+    testing::random_splits(basis, rng, 12, 4);
+    for (int leaf : basis.tree().leaves()) {
+      ElementBasis fb;
+      ASSERT_TRUE(basis.corner_fallback_basis(leaf, &fb));
+      ASSERT_EQ(fb.terms.size(), std::size_t{1} << K);
+      const IBox& box = basis.tree().node(leaf).box;
+      for (int i = 0; i < 20; ++i) {
+        const std::vector<double> u = testing::random_point(box, K, rng);
+        std::vector<double> psi(fb.terms.size()), dpsi(fb.terms.size() * K);
+        eval_element_basis(basis, fb, u.data(), psi.data(), dpsi.data());
+        for (std::size_t t = 0; t < fb.terms.size(); ++t) {
+          // The corner's multilinear weight and its gradient, from the corner's own position.
+          const IPoint& c = basis.sample(fb.terms[t]);
+          double w = 1.0, grad[kMaxDim];
+          std::fill(grad, grad + K, 1.0);
+          for (int d = 0; d < K; ++d) {
+            const double lo = to_unit(box.lo[d]), h = to_unit(box.hi[d]) - lo;
+            const double s = (u[d] - lo) / h;
+            const bool upper = c[d] == box.hi[d];
+            ASSERT_TRUE(upper || c[d] == box.lo[d]) << "term off the element's corners";
+            const double wd = upper ? s : 1 - s, dd = (upper ? 1.0 : -1.0) / h;
+            for (int e = 0; e < K; ++e) grad[e] *= e == d ? dd : wd;
+            w *= wd;
+          }
+          EXPECT_NEAR(psi[t], w, 1e-12);
+          for (int d = 0; d < K; ++d) EXPECT_NEAR(dpsi[d * fb.terms.size() + t], grad[d], 1e-9);
+        }
+      }
+    }
+  }
+  Basis linear(2, Degree::Linear);
+  ElementBasis fb;
+  EXPECT_FALSE(linear.corner_fallback_basis(linear.tree().leaves().front(), &fb));
+}
+
+TEST(AdaptiveInfeasible, CubicCornerFallbackKeepsTheFeasibleSpaceAccurately) {
+  // A cubic element refused for a failed sample two widths away keeps its corners' multilinear
+  // interpolant instead, tested against the tolerance like any element.
+  for (int budget : {120, 600}) {
+    SCOPED_TRACE(budget);
+    const AdaptiveResult with =
+        adaptive_sample(2, 1, {0, 0}, {1, 1}, kHost, options(Degree::Cubic, budget));
+    AdaptiveOptions o = options(Degree::Cubic, budget);
+    o.corner_fallback = false;
+    const AdaptiveResult without = adaptive_sample(2, 1, {0, 0}, {1, 1}, kHost, o);
+    const Fractions f = measure(with), p = measure(without, false);
+    std::printf(
+        "cubic %d samples: refused %.4f (without fallback %.4f), failing %.4f, "
+        "max error %.3g (without %.3g)\n",
+        budget, f.refused, p.refused, f.truth, f.max_error, p.max_error);
+    EXPECT_GE(f.refused, f.truth - 0.005);
+    EXPECT_LT(f.refused - f.truth, 0.5 * (p.refused - p.truth));
+    EXPECT_LE(f.max_error, 2 * std::max(p.max_error, o.tolerance));
+  }
 }
 
 }  // namespace

@@ -207,4 +207,56 @@ ElementBasis Basis::element_basis(int leaf) const {
   return eb;
 }
 
+bool Basis::corner_fallback_basis(int leaf, ElementBasis* out) const {
+  if (degree_ != Degree::Cubic || leaf < 0 || leaf >= tree_.node_count() || !tree_.is_leaf(leaf))
+    return false;
+  const int K = dim();
+  const KdTree::Node& node = tree_.node(leaf);
+  const IBox& box = node.box;
+  const int corners = 1 << K;
+  std::vector<std::pair<int, int>> by_sample;  // (sample id, corner bits: 1 = upper in d)
+  for (int m = 0; m < corners; ++m) {
+    IPoint p{};
+    for (int d = 0; d < K; ++d) p[d] = (m >> d) & 1 ? box.hi[d] : box.lo[d];
+    const int k = find_sample(p);
+    if (k < 0) return false;
+    by_sample.emplace_back(k, m);
+  }
+  std::sort(by_sample.begin(), by_sample.end());
+  ElementBasis eb;
+  eb.leaf = leaf;
+  std::vector<int> term_of_corner(static_cast<std::size_t>(corners));
+  for (std::size_t t = 0; t < by_sample.size(); ++t) {
+    eb.terms.push_back(by_sample[t].first);
+    term_of_corner[static_cast<std::size_t>(by_sample[t].second)] = static_cast<int>(t);
+  }
+  // Per direction, B-spline j = 0..3 is centred at lo + (j - 1) w (w = hi - lo, the element's
+  // knot spacing at its level); the lower corner's linear weight there is 2, 1, 0, -1 and the
+  // upper corner's -1, 0, 1, 2.
+  static constexpr double kLowerWeight[4] = {2.0, 1.0, 0.0, -1.0};
+  int count = 1;
+  for (int d = 0; d < K; ++d) count *= 4;
+  eb.col_begin.push_back(0);
+  for (int i = 0; i < count; ++i) {
+    BsplineKey key;
+    int j[kMaxDim];
+    for (int d = 0, r = i; d < K; ++d, r /= 4) {
+      j[d] = r % 4;
+      key.level[static_cast<std::size_t>(d)] = node.level[static_cast<std::size_t>(d)];
+      key.centre[static_cast<std::size_t>(d)] = box.lo[d] + (j[d] - 1) * (box.hi[d] - box.lo[d]);
+    }
+    for (int m = 0; m < corners; ++m) {
+      double a = 1.0;
+      for (int d = 0; d < K && a != 0.0; ++d) a *= kLowerWeight[(m >> d) & 1 ? 3 - j[d] : j[d]];
+      if (a == 0.0) continue;
+      eb.col_term.push_back(term_of_corner[static_cast<std::size_t>(m)]);
+      eb.col_value.push_back(a);
+    }
+    eb.bsplines.push_back(key);
+    eb.col_begin.push_back(static_cast<int>(eb.col_term.size()));
+  }
+  *out = std::move(eb);
+  return true;
+}
+
 }  // namespace cadinterp::core

@@ -76,6 +76,18 @@ class Basis {
   /// The element-local form of the basis on `leaf` (see ElementBasis).
   ElementBasis element_basis(int leaf) const;
 
+  /// The corner fallback of a cubic `leaf`, for an element whose cubic terms reach an
+  /// infeasible sample while its own corners are feasible (the paper's locality, §4, applied to
+  /// the cubic basis of §5.3, whose terms reach two elements beyond the box): the multilinear
+  /// interpolant of the element's 2^K corner samples. It is written as the 4^K uniform cubic
+  /// B-splines of the element's own knot spacing that are nonzero on it, each with the corners'
+  /// multilinear weights at its centre as coefficients; uniform cubic B-splines reproduce
+  /// linear functions, so on the element psi is exactly multilinear and any cubic-basis
+  /// evaluator (CompiledBasis, an asset reader) evaluates it unchanged. The interpolant is
+  /// continuous inside the element but not across its faces. Returns false (out untouched) for
+  /// a linear basis, a non-leaf, or a corner that is not a sample (refine() never leaves one).
+  bool corner_fallback_basis(int leaf, ElementBasis* out) const;
+
   /// Calls f(key, coefficients) for every live B-spline, in creation order.
   template <class F>
   void for_each_bspline(F&& f) const {

@@ -68,7 +68,7 @@ void eval_kernel(const KernelInput& in, const double* u, double* psi, double* dp
 
 CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<double>& lo,
                                      const std::vector<double>& hi,
-                                     const std::vector<bool>* infeasible) {
+                                     const std::vector<bool>* infeasible, bool corner_fallback) {
   const int K = basis.dim();
   if (static_cast<int>(lo.size()) != K || static_cast<int>(hi.size()) != K)
     throw std::invalid_argument("CompiledBasis::compile: domain bounds need K values");
@@ -104,8 +104,20 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
   c.p_.elem_bs_begin.push_back(0);
   c.p_.elem_term_begin.push_back(0);
   c.p_.bs_col_begin.push_back(0);
+  auto feasible_terms = [&](const ElementBasis& eb) {
+    return !infeasible || std::none_of(eb.terms.begin(), eb.terms.end(), [&](int k) {
+      return (*infeasible)[static_cast<std::size_t>(k)];
+    });
+  };
   for (int leaf : leaves) {
-    const ElementBasis eb = basis.element_basis(leaf);
+    ElementBasis eb = basis.element_basis(leaf);
+    bool feasible = feasible_terms(eb);
+    ElementBasis corners;
+    if (!feasible && corner_fallback && basis.corner_fallback_basis(leaf, &corners) &&
+        feasible_terms(corners)) {
+      eb = std::move(corners);
+      feasible = true;
+    }
     const IBox& box = tree.node(leaf).box;
     for (int d = 0; d < K; ++d) c.p_.elem_box.push_back(to_unit(box.lo[d]));
     for (int d = 0; d < K; ++d) c.p_.elem_box.push_back(to_unit(box.hi[d]));
@@ -114,11 +126,7 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
         c.p_.bs_centre.push_back(to_unit(key.centre[d]));
         c.p_.bs_inv_width.push_back(1.0 / to_unit(width_at(key.level[d])));
       }
-    bool feasible = true;
-    for (int k : eb.terms) {
-      c.p_.term_sample.push_back(k);
-      if (infeasible && (*infeasible)[static_cast<std::size_t>(k)]) feasible = false;
-    }
+    c.p_.term_sample.insert(c.p_.term_sample.end(), eb.terms.begin(), eb.terms.end());
     c.p_.elem_feasible.push_back(feasible ? 1 : 0);
     const auto col0 = static_cast<std::int64_t>(c.p_.col_term.size());
     for (std::size_t j = 1; j < eb.col_begin.size(); ++j)

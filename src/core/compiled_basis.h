@@ -31,10 +31,15 @@ class CompiledBasis {
  public:
   /// Flattens `basis` for the parameter box [lo, hi] (K values each, lo < hi).
   /// `infeasible`, if given, has one flag per sample; an element whose terms include an
-  /// infeasible sample is marked infeasible (never interpolated across).
+  /// infeasible sample is marked infeasible (never interpolated across), except that with
+  /// `corner_fallback` a cubic element whose corners are all feasible gets its corner fallback
+  /// (Basis::corner_fallback_basis) instead: the choice AdaptiveOptions::corner_fallback makes
+  /// during sampling. Throws std::invalid_argument for bounds that are not K finite increasing
+  /// pairs or a flag count other than the sample count.
   static CompiledBasis compile(const Basis& basis, const std::vector<double>& lo,
                                const std::vector<double>& hi,
-                               const std::vector<bool>* infeasible = nullptr);
+                               const std::vector<bool>* infeasible = nullptr,
+                               bool corner_fallback = true);
 
   int dim() const { return p_.K; }
   Degree degree() const { return p_.degree; }
