@@ -134,4 +134,42 @@ TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
   EXPECT_TRUE(std::isinf(empty.distance(x)));
 }
 
+TEST(SurfaceDistance, MatchesBruteForceNearAFineSurface) {
+  // A wavy 40 x 40 height field (3,200 triangles, many grid cells) and points within a few
+  // triangle sizes of it, where the query stops early: the same distance as every triangle
+  // tried, and a triangle at that distance.
+  const int n = 40;
+  std::vector<double> V;
+  std::vector<std::uint32_t> F;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) {
+      const double a = double(i) / n, b = double(j) / n;
+      V.insert(V.end(), {a, b, 0.1 * std::sin(6 * a) * std::cos(4 * b)});
+    }
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const std::uint32_t v = static_cast<std::uint32_t>(i * (n + 1) + j);
+      F.insert(F.end(), {v, v + n + 1, v + 1, v + 1, v + n + 1, v + n + 2});
+    }
+  const mesh::SurfaceIndex index(V, F);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.05, 1.05), dz(-0.06, 0.06);
+  for (int i = 0; i < 400; ++i) {
+    double p[3] = {u(rng), u(rng), 0};
+    p[2] = 0.1 * std::sin(6 * p[0]) * std::cos(4 * p[1]) + dz(rng);
+    double brute = std::numeric_limits<double>::infinity();
+    for (std::size_t t = 0; t < F.size() / 3; ++t) {
+      const std::vector<std::uint32_t> f(F.begin() + static_cast<long>(3 * t),
+                                         F.begin() + static_cast<long>(3 * t + 3));
+      brute = std::min(brute, mesh::SurfaceIndex(V, f).distance(p));
+    }
+    std::size_t t = F.size();
+    EXPECT_EQ(index.distance(p, &t), brute) << i;
+    ASSERT_LT(t, F.size() / 3);
+    const std::vector<std::uint32_t> f(F.begin() + static_cast<long>(3 * t),
+                                       F.begin() + static_cast<long>(3 * t + 3));
+    EXPECT_EQ(mesh::SurfaceIndex(V, f).distance(p), brute) << i;
+  }
+}
+
 }  // namespace

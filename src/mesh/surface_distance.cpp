@@ -151,9 +151,22 @@ double SurfaceIndex::distance(const double* p, std::size_t* triangle) const {
   double best = std::numeric_limits<double>::infinity();
   const int max_ring = std::max({n_[0], n_[1], n_[2]});
   for (int r = 0; r <= max_ring; ++r) {
-    // A triangle not yet seen lies only in cells of ring >= r, so it is at least (r - 1) cells
-    // away, and never closer than the grid's box.
-    if (best <= std::max(outside, (r - 1) * cell_)) break;
+    // A triangle not yet seen meets no cell of rings < r, so it lies outside their box: never
+    // closer than p's distance to that box's faces (for p inside it; at least r - 1 cells), nor
+    // than the grid's box. Points near the surface, which most queries are, stop after ring 0.
+    double unseen = std::max(outside, (r - 1) * cell_);
+    if (r > 0 && outside == 0) {
+      double inner = std::numeric_limits<double>::infinity();
+      for (int c = 0; c < 3; ++c) {
+        const double below = p[c] - (lo_[c] + (home[c] - r + 1) * cell_);
+        const double above = lo_[c] + (home[c] + r) * cell_ - p[c];
+        inner = std::min({inner, below, above});
+      }
+      // Less a hair: the cells were assigned by floor((v - lo) / cell), which may round the
+      // other way than these sums.
+      unseen = std::max(unseen, inner - 1e-9 * cell_);
+    }
+    if (best <= unseen) break;
     for (int i = home[0] - r; i <= home[0] + r; ++i) {
       if (i < 0 || i >= n_[0]) continue;
       for (int j = home[1] - r; j <= home[1] + r; ++j) {
