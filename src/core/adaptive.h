@@ -65,13 +65,14 @@ struct AdaptiveOptions {
   int inherited_direction_splits = 2;
   /// Refine toward the feasibility boundary (the paper's locality: an element whose
   /// own terms are all feasible is usable whatever its neighbours are). An element that depends
-  /// on an infeasible sample is split, up to max_level: linear along the direction that best
-  /// separates its feasible from its infeasible terms (the widest on a tie), so that its children
-  /// on the feasible side become usable; cubic along its widest direction (its terms reach
-  /// beyond its box in every direction, adaptive.cpp gives the measurement). An element lying
-  /// wholly inside the infeasible region (its centre and every sample in its closed box infeasible)
-  /// is not split: its children would keep an infeasible corner, so splitting buys nothing and
-  /// every new point fails.
+  /// on an infeasible sample is split, up to max_level, along the direction that best separates
+  /// its feasible from its infeasible corners (its terms when no corner fails; the widest on a
+  /// tie), so that its children on the feasible side become usable; without corner_fallback a
+  /// cubic element is split along its widest direction instead (its terms reach beyond its box
+  /// in every direction, adaptive.cpp gives the measurement). An element lying wholly inside the
+  /// infeasible region (its centre and every sample in its closed box infeasible) is not split:
+  /// its children would keep an infeasible corner, so splitting buys nothing and every new point
+  /// fails.
   bool refine_infeasible = true;
   /// Bounds the points that fail spent on that refinement: once this many evaluated points are
   /// infeasible (every failure counts, whatever element asked for it), no element is split for
