@@ -1,9 +1,11 @@
 // The adaptive driver (paper §4.2). Why one file of over 800 lines: AdaptiveDriver's steps (the
 // wave's points, its error queries, the probes for the split direction, the refinement toward the
-// feasibility boundary, the split) all read and write one state (tree, basis, point rows,
-// per-node direction estimates, queue) within a wave; spread over files they would pass that
-// state around. The seams if it grows: the direction probes (lazy_face_centres) and the
-// feasibility refinement, each a group of member functions below.
+// feasibility boundary with the cubic corner fallback, the split) all read and write one state
+// (tree, basis, point rows, per-node direction estimates, queue) within a wave; spread over files
+// they would pass that state around. The seams if it grows further: the direction probes
+// (lazy_face_centres) and the feasibility group (usable_basis, infeasible_split,
+// any_own_sample_feasible, separating_direction), which reads only the basis and the rows'
+// feasibility and could move behind a feasibility predicate.
 #include "core/adaptive.h"
 
 #include <algorithm>
@@ -416,8 +418,8 @@ class AdaptiveDriver {
     std::vector<std::size_t> first;  // per leaf: its first query
     for (std::size_t l = 0; l < leaves.size(); ++l) {
       const int crow = rows_.row(centre_of(tree_.node(leaves[l]), K_));
-      bool ok = false;
-      const ElementBasis eb = usable_basis(leaves[l], &ok);
+      bool usable_terms = false;  // true: both callers pass usable leaves only
+      const ElementBasis eb = usable_basis(leaves[l], &usable_terms);
       first.push_back(qs.size());
       for (const IPoint& p : at[l]) {
         bool pok = false;

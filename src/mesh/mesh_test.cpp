@@ -105,6 +105,20 @@ TEST(Sample, OutputsSerializeAndOlderVersionsStillRead) {
   EXPECT_NE(mesh::validate(bad).find("not finite"), std::string::npos);
 }
 
+// Triangle t of F alone.
+std::vector<std::uint32_t> triangle(const std::vector<std::uint32_t>& F, std::size_t t) {
+  return {F[3 * t], F[3 * t + 1], F[3 * t + 2]};
+}
+
+// The distance from p to the surface (V, F), one triangle at a time: no grid to prune with.
+double brute_distance(const std::vector<double>& V, const std::vector<std::uint32_t>& F,
+                      const double* p) {
+  double d = std::numeric_limits<double>::infinity();
+  for (std::size_t t = 0; t < F.size() / 3; ++t)
+    d = std::min(d, mesh::SurfaceIndex(V, triangle(F, t)).distance(p));
+  return d;
+}
+
 TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
   // Two unit squares 0.25 apart: Hausdorff 0.25.
   const std::vector<double> A = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
@@ -123,12 +137,7 @@ TEST(SurfaceDistance, MatchesBruteForceAndKnownDistances) {
   std::uniform_real_distribution<double> u(-3.0, 3.0);
   for (int i = 0; i < 300; ++i) {
     const double p[3] = {u(rng), u(rng), u(rng) * (i % 3 == 0 ? 10 : 1)};
-    double brute = std::numeric_limits<double>::infinity();
-    for (std::size_t t = 0; t < s.triangle_count(); ++t) {
-      const std::vector<std::uint32_t> f(s.triangles.begin() + static_cast<long>(3 * t),
-                                         s.triangles.begin() + static_cast<long>(3 * t + 3));
-      brute = std::min(brute, mesh::SurfaceIndex(s.vertices, f).distance(p));
-    }
+    const double brute = brute_distance(s.vertices, s.triangles, p);
     EXPECT_NEAR(index.distance(p), brute, 1e-12 * (1 + brute)) << i;
   }
   EXPECT_TRUE(std::isinf(empty.distance(x)));
@@ -157,18 +166,11 @@ TEST(SurfaceDistance, MatchesBruteForceNearAFineSurface) {
   for (int i = 0; i < 400; ++i) {
     double p[3] = {u(rng), u(rng), 0};
     p[2] = 0.1 * std::sin(6 * p[0]) * std::cos(4 * p[1]) + dz(rng);
-    double brute = std::numeric_limits<double>::infinity();
-    for (std::size_t t = 0; t < F.size() / 3; ++t) {
-      const std::vector<std::uint32_t> f(F.begin() + static_cast<long>(3 * t),
-                                         F.begin() + static_cast<long>(3 * t + 3));
-      brute = std::min(brute, mesh::SurfaceIndex(V, f).distance(p));
-    }
+    const double brute = brute_distance(V, F, p);
     std::size_t t = F.size();
     EXPECT_EQ(index.distance(p, &t), brute) << i;
     ASSERT_LT(t, F.size() / 3);
-    const std::vector<std::uint32_t> f(F.begin() + static_cast<long>(3 * t),
-                                       F.begin() + static_cast<long>(3 * t + 3));
-    EXPECT_EQ(mesh::SurfaceIndex(V, f).distance(p), brute) << i;
+    EXPECT_EQ(mesh::SurfaceIndex(V, triangle(F, t)).distance(p), brute) << i;
   }
 }
 
