@@ -4,8 +4,8 @@
 #   fuzz_open_eval  bytes through open + eval + grad + vjp + properties (the C ABI)
 #   fuzz_api        every query and evaluation call of the C ABI, with invariant checks
 #   fuzz_codecs     every codec decoder directly, with encode/decode round trips
-# Seeds: the conformance assets (fuzz_open_eval, fuzz_api) and encoder output written by
-# fuzz_codecs itself. Corpora grow in BUILD/corpus/TARGET across runs; crashes are written to
+# Seeds: the conformance assets (fuzz_open_eval, fuzz_api), encoder output written by
+# fuzz_codecs itself, and src/runtime/fuzz_regressions/TARGET-* (inputs that once failed). Corpora grow in BUILD/corpus/TARGET across runs; crashes are written to
 # BUILD/artifacts/TARGET-*, and a failing target's log tail is printed.
 # Usage: scripts/fuzz.sh [SECONDS] [TARGET...]   (BUILD: $CADINTERP_FUZZ_BUILD_DIR or build/fuzz)
 set -euo pipefail
@@ -42,6 +42,8 @@ for t in "${targets[@]}"; do
       for f in conformance/cases/*/*/asset.cadi; do cp "$f" "$corpus/$(echo "$f" | tr / _)"; done
       max_len=300000 ;;
   esac
+  # Inputs that once failed run first, with the rest of the corpus.
+  for f in src/runtime/fuzz_regressions/"$t"-*; do [ -f "$f" ] && cp "$f" "$corpus/"; done
   "$(binary "$t")" "$corpus" -max_total_time="$seconds" -max_len="$max_len" -rss_limit_mb=2048 \
     -timeout=60 -artifact_prefix="$build/artifacts/$t-" -print_final_stats=1 \
     >"$build/logs/$t.log" 2>&1 &
@@ -62,6 +64,19 @@ for i in "${!targets[@]}"; do
     summary+=("$t FAILED")
     echo "== $t failed; end of $log:"
     tail -n 40 "$log"
+    # The input itself, so that a failure on a machine whose build tree is gone can be replayed:
+    # base64 -d | gunzip > crash; $(binary "$t") crash
+    for a in "$build/artifacts/$t"-*; do
+      [ -f "$a" ] || continue
+      encoded=$(gzip -9c "$a" | base64 -w 100)
+      if [ "${#encoded}" -le 65536 ]; then
+        echo "== $(basename "$a") ($(stat -c %s "$a") bytes), gzip | base64:"
+        echo "$encoded"
+        echo "== end of $(basename "$a")"
+      else
+        echo "== $(basename "$a"): $(stat -c %s "$a") bytes, too large to print"
+      fi
+    done
   fi
 done
 joined=$(printf '%s, ' "${summary[@]}")

@@ -81,4 +81,10 @@ CADINTERP_REQUIRE_ALL=1 PYTHONPATH=build/release/bindings/python /usr/bin/python
   -p no:cacheprovider examples/hosts/freecad/tests
 
 step "fuzz: fuzz_open_eval, fuzz_api, fuzz_codecs for 30 s"
-scripts/fuzz.sh 30 2>&1 | tail -3
+# Quiet on success; on failure the failing target's log tail and its input (scripts/fuzz.sh).
+mkdir -p build
+if ! scripts/fuzz.sh 30 >build/fuzz.log 2>&1; then
+  sed -n '/^== /,$p' build/fuzz.log
+  exit 1
+fi
+tail -n 3 build/fuzz.log

@@ -9,8 +9,8 @@
 // file_size bytes (header offset 16) when the input is longer than that; the rest drives the
 // calls (see parse_points_and_rest). Without a trailer a fixed script runs (corners, midpoint,
 // dyadic face coordinates, NaN, outside the box, all fields, a one-byte cache budget), so the
-// conformance assets are seeds as they are. Checksums are recomputed before opening, as in
-// fuzz_open_eval, so mutations reach the index checks and the decoders.
+// conformance assets are seeds as they are. Checksums are recomputed before opening
+// (fuzz_checksums.h), so mutations reach the index checks and the decoders.
 //
 // Build and run: scripts/fuzz.sh [SECONDS] (seeds: conformance/cases/*/*/asset.cadi).
 //
@@ -19,8 +19,6 @@
 // its neighbours'; splitting by entry point would scatter the shared script and trailer parsing.
 // One file past 800 lines: a libFuzzer target is one program, its checks one contract.
 #include <fuzzer/FuzzedDataProvider.h>
-#include <xxhash.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdarg>
@@ -35,6 +33,7 @@
 
 #include "cadinterp/cadinterp.h"
 #include "cadinterp_generated.h"
+#include "fuzz_checksums.h"
 
 namespace {
 
@@ -63,55 +62,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // finding to the rest; the default is strict.
 bool g_check_values = true;
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// ---- Checksum fix-up -----------------------------------------------------------------------
-
-std::uint64_t load_le64(const std::uint8_t* p) {
-  std::uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
-
-void store_le64(std::uint8_t* p, std::uint64_t v) {
-  for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-
-// Almost every mutation would otherwise end at a checksum. Blob checksums first (they live in
-// the index), then the index checksum over the result. BlobRef structs are mutated in place only
-// where their vector is 8-aligned, as a misaligned one is rejected at open anyway.
-void fix_checksums(std::vector<std::uint8_t>& b) {
-  if (b.size() < 48) return;
-  const std::uint64_t index_size = load_le64(&b[32]);
-  if (index_size > b.size() - 48 || index_size > (1u << 30)) return;
-  std::uint8_t* index = b.data() + 48;
-  const std::uint64_t section = 48 + index_size;
-  const std::uint64_t section_size = b.size() - section;
-  flatbuffers::Verifier verifier(index, static_cast<std::size_t>(index_size));
-  if (cadinterp::fb::VerifyAssetBuffer(verifier)) {
-    auto rehash = [&](cadinterp::fb::BlobRef* r) {
-      if (!r || r->size() > section_size || r->offset() > section_size - r->size()) return;
-      r->mutate_checksum(
-          XXH64(b.data() + section + r->offset(), static_cast<std::size_t>(r->size()), 0));
-    };
-    auto aligned = [](const auto* v) {
-      return !v || reinterpret_cast<std::uintptr_t>(v->Data()) % 8 == 0;
-    };
-    auto* elements = cadinterp::fb::GetMutableAsset(index)->mutable_elements();
-    for (flatbuffers::uoffset_t e = 0; elements && e < elements->size(); ++e) {
-      auto* m = elements->GetMutableObject(e);
-      if (!aligned(m->positions()) || !aligned(m->fields())) continue;
-      rehash(m->mutable_tets());
-      rehash(m->mutable_triangles());
-      rehash(m->mutable_triangle_tags());
-      rehash(m->mutable_canonical_positions());
-      if (auto* p = m->mutable_positions())
-        for (flatbuffers::uoffset_t i = 0; i < p->size(); ++i) rehash(p->GetMutableObject(i));
-      if (auto* f = m->mutable_fields())
-        for (flatbuffers::uoffset_t i = 0; i < f->size(); ++i) rehash(f->GetMutableObject(i));
-    }
-  }
-  store_le64(&b[40], XXH64(index, static_cast<std::size_t>(index_size), 0));
-}
 
 // ---- The script ----------------------------------------------------------------------------
 
@@ -801,11 +751,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // The asset is the first file_size bytes when a trailer follows; else the whole input.
   std::size_t asset_size = size;
   if (size >= 48) {
-    const std::uint64_t declared = load_le64(data + 16);
+    const std::uint64_t declared = cadinterp_fuzz::load_le64(data + 16);
     if (declared >= 48 && declared < size) asset_size = static_cast<std::size_t>(declared);
   }
   std::vector<std::uint8_t> bytes(data, data + asset_size);
-  fix_checksums(bytes);
+  cadinterp_fuzz::fix_checksums(bytes);
   FuzzedDataProvider in(data + asset_size, size - asset_size);
   const bool scripted = size > asset_size;
 
