@@ -8,6 +8,8 @@
 #include <utility>
 
 #include "mapping/parallel_for.h"
+#include "mapping/smooth_surface.h"
+#include "mapping/surface.h"
 #include "mesh/surface_distance.h"
 
 namespace cadinterp::mapping {
@@ -160,6 +162,174 @@ std::vector<std::array<std::uint32_t, 2>> sagging_edges(
   return edges;
 }
 
+// The point of `idx`'s surface closest to p, as the triangle under it and its weights. Weights
+// below 1e-9 are made 0: a point on a triangle's edge is then one to the smooth surface, which
+// places edge points on the edge's own curve (smooth_surface.h).
+SurfacePoint closest_on(const mesh::SurfaceIndex& idx, const double* p) {
+  std::size_t t = 0;
+  idx.distance(p, &t);
+  const std::uint32_t* f = idx.triangle(t);
+  SurfacePoint sp;
+  for (int k = 0; k < 3; ++k) sp.v[k] = f[k];
+  mesh::closest_point_weights(p, idx.vertex(f[0]), idx.vertex(f[1]), idx.vertex(f[2]), sp.w);
+  double sum = 0;
+  for (double& w : sp.w) {
+    if (w < 1e-9) w = 0;
+    sum += w;
+  }
+  for (double& w : sp.w) w /= sum;
+  return sp;
+}
+
+void flat_position(const mesh::Sample& s, const SurfacePoint& sp, double* x) {
+  for (int a = 0; a < 3; ++a) {
+    x[a] = 0;
+    for (int k = 0; k < 3; ++k) x[a] += sp.w[k] * s.vertices[3 * std::size_t(sp.v[k]) + a];
+  }
+}
+
+// A source's own surface as carry_map needs it: whole, per face tag, and smooth.
+struct SourceSurface {
+  const mesh::SurfaceIndex* whole = nullptr;
+  const std::map<std::int32_t, mesh::SurfaceIndex>* faces = nullptr;
+  const SmoothSurface* smooth = nullptr;
+};
+
+// Per source, its surface as measuring and carrying need it, each part built once: the whole
+// surface's index; per face tag that face's triangles alone (an edge's offset is measured from
+// its own face, since a chord along a sharp CAD edge lies on the plane next to it, a bend's arc
+// beside a flat side face, and measured from the whole surface would show no sag); its smooth
+// reconstruction. A source of the canonical's own combinatorics needs none: bisected, its mapped
+// surface is its own surface, which departs by nothing. The face indices and the smooth surface
+// are built the first time a source marks a triangle or has a map carried (most elements never
+// do), on the thread that handles the source: source i must be asked from one thread at a time.
+class SourceSurfaces {
+ public:
+  SourceSurfaces(const std::vector<const mesh::Sample*>& sources, const std::vector<char>& own,
+                 int threads)
+      : sources_(sources),
+        whole_(sources.size()),
+        faces_(sources.size()),
+        smooth_(sources.size()),
+        faces_built_(sources.size(), 0) {
+    parallel_for(sources.size(), threads, [&](std::size_t i) {
+      if (!own[i])
+        whole_[i] =
+            std::make_unique<mesh::SurfaceIndex>(sources[i]->vertices, sources[i]->triangles);
+    });
+  }
+  const mesh::SurfaceIndex& whole(std::size_t i) const { return *whole_[i]; }
+  const std::map<std::int32_t, mesh::SurfaceIndex>& faces(std::size_t i) {
+    if (faces_built_[i]) return faces_[i];
+    const mesh::Sample& s = *sources_[i];
+    std::map<std::int32_t, std::vector<std::uint32_t>> by_tag;
+    for (std::size_t t = 0; t < s.triangle_count(); ++t)
+      by_tag[s.triangle_tags[t]].insert(by_tag[s.triangle_tags[t]].end(), &s.triangles[3 * t],
+                                        &s.triangles[3 * t + 3]);
+    for (const auto& [tag, F] : by_tag) faces_[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
+    faces_built_[i] = 1;
+    return faces_[i];
+  }
+  SourceSurface for_carrying(std::size_t i) {
+    if (!smooth_[i]) smooth_[i] = std::make_unique<SmoothSurface>(*sources_[i]);
+    return {whole_[i].get(), &faces(i), smooth_[i].get()};
+  }
+
+ private:
+  const std::vector<const mesh::Sample*>& sources_;
+  std::vector<std::unique_ptr<mesh::SurfaceIndex>> whole_;
+  std::vector<std::map<std::int32_t, mesh::SurfaceIndex>> faces_;
+  std::vector<std::unique_ptr<SmoothSurface>> smooth_;
+  std::vector<char> faces_built_;
+};
+
+// `m`, `source` mapped onto `prev`, carried onto bisect_edges(prev, edges) without mapping the
+// source again. Bisection keeps every vertex and adds only boundary vertices at edge midpoints,
+// so the old vertices keep their mapped positions and each new one is its mapped edge's
+// midpoint moved onto the source's boundary, where the mapper puts boundary vertices (§6.2,
+// surface mapping): onto the face of the canonical triangles around it (by tag), or, on an edge
+// between two faces, onto both alternately, which ends on their common CAD edge where they meet
+// at an angle; then lifted onto the smooth reconstruction as the mapper lifts (smooth_surface.h),
+// or left on the flat triangles where the lift inverts a tet. Per-vertex fields are
+// interpolated there with the same weights; per-tet fields are copied to both halves of a split
+// tet, as bisect_edges does. False where a tet would be inverted or flat either way
+// (mesh::validate's rule): the caller maps the source again.
+bool carry_map(const mesh::Sample& source, const SourceSurface& surface, const mesh::Sample& prev,
+               const mesh::MappedSample& m, const std::vector<std::array<std::uint32_t, 2>>& edges,
+               mesh::MappedSample& out) {
+  if (m.fields.size() != source.fields.size()) return false;
+  mesh::Sample t;
+  t.vertices = m.vertices;
+  t.tets = prev.tets;
+  t.triangles = prev.triangles;
+  t.triangle_tags = prev.triangle_tags;
+  for (std::size_t k = 0; k < source.fields.size(); ++k) {
+    mesh::Field f;
+    f.name = source.fields[k].name;
+    f.location = source.fields[k].location;
+    f.components = source.fields[k].components;
+    f.values = m.fields[k];
+    t.fields.push_back(std::move(f));
+  }
+  mesh::Sample b = bisect_edges(t, edges);
+  const std::size_t n0 = t.vertex_count();
+  std::vector<std::vector<std::int32_t>> tags(b.vertex_count() - n0);
+  for (std::size_t f = 0; f < b.triangle_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = b.triangles[3 * f + std::size_t(k)];
+      if (v < n0) continue;
+      auto& l = tags[v - n0];
+      if (std::find(l.begin(), l.end(), b.triangle_tags[f]) == l.end())
+        l.push_back(b.triangle_tags[f]);
+    }
+  auto face = [&](std::size_t j, std::size_t i) -> const mesh::SurfaceIndex* {
+    if (tags[j].size() <= i) return nullptr;
+    const auto it = surface.faces->find(tags[j][i]);
+    return it == surface.faces->end() ? nullptr : &it->second;
+  };
+  std::vector<SurfacePoint> at(tags.size());
+  for (std::size_t j = 0; j < tags.size(); ++j) {
+    double p[3];
+    for (int a = 0; a < 3; ++a) p[a] = b.vertices[3 * (n0 + j) + std::size_t(a)];
+    const mesh::SurfaceIndex *A = face(j, 0), *B = face(j, 1);
+    if (tags[j].size() == 1 && A) {
+      at[j] = closest_on(*A, p);
+    } else if (tags[j].size() == 2 && A && B) {
+      for (int round = 0; round < 8; ++round) {
+        at[j] = closest_on(round % 2 ? *B : *A, p);
+        flat_position(source, at[j], p);
+      }
+    } else {
+      at[j] = closest_on(*surface.whole, p);
+    }
+  }
+  auto place = [&](bool smooth) {
+    for (std::size_t j = 0; j < at.size(); ++j) {
+      double* x = &b.vertices[3 * (n0 + j)];
+      if (smooth)
+        surface.smooth->position(at[j], x);
+      else
+        flat_position(source, at[j], x);
+      for (std::size_t k = 0; k < source.fields.size(); ++k) {
+        const mesh::Field& f = source.fields[k];
+        if (f.location != 0) continue;
+        const auto c = static_cast<std::size_t>(f.components);
+        for (std::size_t q = 0; q < c; ++q) {
+          double v = 0;
+          for (int i = 0; i < 3; ++i) v += at[j].w[i] * f.values[c * at[j].v[i] + q];
+          b.fields[k].values[c * (n0 + j) + q] = v;
+        }
+      }
+    }
+    return mesh::validate(b).empty();
+  };
+  if (!place(true) && !place(false)) return false;
+  out.vertices = std::move(b.vertices);
+  out.fields.clear();
+  for (mesh::Field& f : b.fields) out.fields.push_back(std::move(f.values));
+  return true;
+}
+
 }  // namespace
 
 double mapped_departure(const mesh::Sample& source, const mesh::Sample& canonical,
@@ -180,16 +350,29 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
   std::vector<char> own(sources.size());
   for (std::size_t i = 0; i < sources.size(); ++i)
     own[i] = mesh::same_combinatorics(*sources[i], canonical) ? 1 : 0;
+  SourceSurfaces surfaces(sources, own, options.threads);
   // Every source onto `c`; false (with why) at the first that fails. A source of the
   // canonical's own combinatorics (the canonical sample itself, or one the builder blends with
   // it vertex by vertex) is bisected as the canonical was instead: its vertex i is the
   // canonical's, so that is its exact map, new vertices on its own surface, and no mapping.
   // Sources are mapped on up to options.threads threads (the mapper is const and thread-safe);
   // the first failure in source order is reported, whichever thread met it.
-  auto map_all = [&](const mesh::Sample& c, std::vector<mesh::MappedSample>& out, std::string& w) {
+  // With `prev` (the mesh `c` was bisected from, and the sources mapped onto it) the other
+  // sources' maps are carried over (carry_map) where options.carry_maps allows it and no tet
+  // inverts; mapped again otherwise.
+  struct Previous {
+    const mesh::Sample* mesh;
+    const std::vector<mesh::MappedSample>* mapped;
+  };
+  auto carry = [&](std::size_t i, const Previous& prev, mesh::MappedSample& out) {
+    return carry_map(*sources[i], surfaces.for_carrying(i), *prev.mesh, (*prev.mapped)[i],
+                     history.back(), out);
+  };
+  auto map_all = [&](const mesh::Sample& c, const Previous* prev,
+                     std::vector<mesh::MappedSample>& out, std::string& w) {
     out.assign(sources.size(), mesh::MappedSample());
     std::vector<std::string> whys(sources.size());
-    std::vector<char> ok(sources.size(), 1);
+    std::vector<char> ok(sources.size(), 1), carried(sources.size(), 0);
     parallel_for(sources.size(), options.threads, [&](std::size_t i) {
       if (options.cancelled && options.cancelled()) {
         ok[i] = 0;
@@ -201,47 +384,31 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
         for (const auto& edges : history) b = bisect_edges(b, edges);
         out[i].vertices = std::move(b.vertices);
         for (mesh::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
-      } else {
-        ok[i] = mapper.map(*sources[i], c, out[i], whys[i]) ? 1 : 0;
+        return;
       }
+      if (prev && options.carry_maps && carry(i, *prev, out[i])) {
+        carried[i] = 1;
+        return;
+      }
+      ok[i] = mapper.map(*sources[i], c, out[i], whys[i]) ? 1 : 0;
     });
     for (std::size_t i = 0; i < sources.size(); ++i)
       if (!ok[i]) {
         w = whys[i];
         return false;
       }
+    if (prev)
+      for (std::size_t i = 0; i < sources.size(); ++i)
+        if (!own[i]) ++(carried[i] ? st.carried : st.remapped);
     return true;
-  };
-  // Per source, its surface index, and per face tag that face's triangles alone: an edge's
-  // offset is measured from its own face, since a chord along a sharp CAD edge lies on the
-  // plane next to it (a bend's arc beside a flat side face) and measured from the whole surface
-  // would show no sag. A source of the canonical's combinatorics needs neither: bisected, its
-  // mapped surface is its own surface, which departs by nothing. The face indices are built the
-  // first time a source marks a triangle (most elements never do).
-  std::vector<std::unique_ptr<mesh::SurfaceIndex>> on_source(sources.size());
-  std::vector<std::map<std::int32_t, mesh::SurfaceIndex>> on_face(sources.size());
-  std::vector<char> faces_built(sources.size(), 0);
-  parallel_for(sources.size(), options.threads, [&](std::size_t i) {
-    if (!own[i])
-      on_source[i] =
-          std::make_unique<mesh::SurfaceIndex>(sources[i]->vertices, sources[i]->triangles);
-  });
-  auto build_faces = [&](std::size_t i) {
-    const mesh::Sample& s = *sources[i];
-    std::map<std::int32_t, std::vector<std::uint32_t>> faces;
-    for (std::size_t t = 0; t < s.triangle_count(); ++t)
-      faces[s.triangle_tags[t]].insert(faces[s.triangle_tags[t]].end(), &s.triangles[3 * t],
-                                       &s.triangles[3 * t + 3]);
-    for (const auto& [tag, F] : faces) on_face[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
-    faces_built[i] = 1;
   };
   // The departure of every source on `c`, and the edges to bisect, over all sources: per
   // marked triangle, every edge whose mapped midpoint lies off the source's face by at least
   // half the most any of its edges does. On a cylinder a triangle's edge across the bend and
   // its diagonal have the same sag (kappa L^2 / 8 along the curvature kappa in the edge's
   // direction), and splitting only one leaves the other's; the axial edge has none. Sources are
-  // measured on their threads (source i on one thread per call, so its lazily built face
-  // indices are too); the maximum and the union of edge sets do not depend on order.
+  // measured on their threads (source i on one thread per call, so its surfaces are built
+  // on one); the maximum and the union of edge sets do not depend on order.
   auto measure = [&](const mesh::Sample& c, const std::vector<mesh::MappedSample>& m,
                      std::set<std::array<std::uint32_t, 2>>& edges) {
     std::vector<double> worst(sources.size(), 0.0);
@@ -250,21 +417,21 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
       if (own[i]) return;
       std::vector<std::size_t> marked;
       worst[i] =
-          departure(*sources[i], *on_source[i], c, m[i].vertices, options.tolerance, &marked);
+          departure(*sources[i], surfaces.whole(i), c, m[i].vertices, options.tolerance, &marked);
       if (marked.empty()) return;
-      if (!faces_built[i]) build_faces(i);
-      split[i] = sagging_edges(c, m[i].vertices, marked, on_face[i], *on_source[i]);
+      split[i] = sagging_edges(c, m[i].vertices, marked, surfaces.faces(i), surfaces.whole(i));
     });
     for (const auto& e : split) edges.insert(e.begin(), e.end());
     return worst.empty() ? 0.0 : *std::max_element(worst.begin(), worst.end());
   };
   refined = canonical;
-  if (mapped.size() != sources.size() && !map_all(refined, mapped, why)) return false;
+  if (mapped.size() != sources.size() && !map_all(refined, nullptr, mapped, why)) return false;
   std::set<std::array<std::uint32_t, 2>> edges;
   st.before = st.after = measure(refined, mapped, edges);
   // Rounds go on from the last refined mesh even where one did not lower the departure (the
   // bend's diagonals are split the round after its edges across it); the best is kept.
   mesh::Sample current = canonical;
+  std::vector<mesh::MappedSample> current_mapped = mapped;
   const double limit = (1.0 + options.max_growth) * static_cast<double>(canonical.vertex_count());
   for (int round = 0; round < options.rounds && !edges.empty(); ++round) {
     if (static_cast<double>(current.vertex_count() + edges.size()) > limit) {
@@ -276,19 +443,21 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
     mesh::Sample next = bisect_edges(current, history.back());
     std::vector<mesh::MappedSample> next_mapped;
     std::string w;
-    if (!map_all(next, next_mapped, w)) {
+    const Previous prev{&current, &current_mapped};
+    if (!map_all(next, &prev, next_mapped, w)) {
       st.stopped = "round " + std::to_string(round + 1) + " could not be mapped: " + w;
       break;
     }
     edges.clear();
     const double d = measure(next, next_mapped, edges);
     current = std::move(next);
+    current_mapped = std::move(next_mapped);
     if (d < st.after) {
       st.after = d;
       st.rounds = round + 1;
       st.added_vertices = current.vertex_count() - canonical.vertex_count();
       refined = current;
-      mapped = std::move(next_mapped);
+      mapped = current_mapped;
     }
   }
   if (st.stopped.empty() && !edges.empty() && options.rounds > 0) st.stopped = "the round limit";

@@ -4,7 +4,8 @@
 // mapped triangle is a chord of the source's surface, however exactly its corners lie on it.
 // Only a finer canonical there lowers that error. This bisects the canonical's boundary edges
 // where some source's mapped surface departs from that source's own boundary by more than a
-// tolerance, and maps every source again onto the refined mesh, for a few rounds.
+// tolerance, and carries every source's map onto the refined mesh (or maps it again), for a
+// few rounds.
 //
 // Bisection of an edge splits every tet and boundary triangle around it in two (conforming by
 // construction, orientation kept, no interior vertex added), so one refined canonical serves
@@ -40,8 +41,14 @@ struct RefineOptions {
   /// a source vertex whose closest mapped triangle it is, or at its own mapped centroid. Below
   /// the builder's default geometry tolerance (1e-3), so that the refined pairs meet it.
   double tolerance = 7e-4;
-  /// Rounds of bisection (each maps every source again); 0 refines nothing.
+  /// Rounds of bisection; 0 refines nothing.
   int rounds = 3;
+  /// After the first round's mapping, a source's map is carried onto the bisected mesh: its
+  /// vertices keep their mapped positions and each new edge midpoint is moved onto the source's
+  /// boundary (its face, or the CAD edge between two faces, lifted onto the smooth
+  /// reconstruction). A source whose carried map would invert a tet is mapped again with the
+  /// mapper, as is every source when this is false.
+  bool carry_maps = true;
   /// No round that would take the canonical's vertex count beyond (1 + max_growth) times its
   /// original count (the asset stores every term on the refined mesh).
   double max_growth = 0.5;
@@ -58,6 +65,8 @@ struct RefineStats {
   std::size_t added_vertices = 0;  ///< canonical vertices they added
   double before = 0;  ///< max over sources of the departure on the original canonical (/ diag)
   double after = 0;   ///< the same on the refined canonical
+  /// Maps onto a bisected mesh carried over from the round before, and mapped again.
+  std::size_t carried = 0, remapped = 0;
   /// Why refinement stopped above the tolerance ("" when it did not): a round whose mapping
   /// failed, the growth limit, or the round limit.
   std::string stopped;
@@ -73,10 +82,10 @@ double mapped_departure(const mesh::Sample& source, const mesh::Sample& canonica
 
 /// Maps every source onto `canonical` with `mapper` and refines the canonical as above: each
 /// round bisects, on every triangle marked for some source, the edges whose mapped midpoints lie
-/// off that source's face by at least half the most of the triangle's edges, then maps every
-/// source again. Rounds go on from the last mesh until none is marked, a mapping fails or a
-/// limit is reached; the round with the smallest departure is kept. On
-/// success `refined` is the canonical kept (a copy of `canonical` when nothing was refined) and
+/// off that source's face by at least half the most of the triangle's edges, then carries every
+/// source's map onto the bisected mesh (RefineOptions::carry_maps) or maps it again. Rounds go
+/// on from the last mesh until none is marked, a mapping fails or a limit is reached; the round
+/// with the smallest departure is kept. On success `refined` is the canonical kept (a copy of `canonical` when nothing was refined) and
 /// `mapped[i]` is sources[i] mapped onto it. False with `why` when a source cannot be mapped
 /// onto the original canonical; a refined canonical some source cannot be mapped onto is never
 /// kept. `stats` may be null. When `mapped` holds one entry per source on entry, those are taken

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <set>
@@ -150,6 +151,39 @@ TEST(CanonicalRefine, CoarseCanonicalUnderABendFallsBelowTheTolerance) {
     EXPECT_LT(q.hausdorff_max, 1e-3);
     EXPECT_EQ(q.inverted, 0u);
     EXPECT_LT(q.region_area_error, 1e-2);
+    // After the first round the maps were carried (no tet inverts on this bend); mapped again
+    // instead, refinement bisects the same edges and the surfaces differ by far less than the
+    // tolerance.
+    EXPECT_GT(stats.carried, 0u);
+    EXPECT_EQ(stats.remapped, 0u);
+    mapping::RefineOptions remap;
+    remap.carry_maps = false;
+    mesh::Sample refined_remapped;
+    std::vector<mesh::MappedSample> remapped;
+    mapping::RefineStats remap_stats;
+    ASSERT_TRUE(mapping::refine_canonical({&source, &canonical}, canonical, mapper,
+                                          refined_remapped, remapped, why, &remap_stats, remap));
+    EXPECT_EQ(remap_stats.carried, 0u);
+    EXPECT_GT(remap_stats.remapped, 0u);
+    EXPECT_LT(remap_stats.after, mapping::RefineOptions().tolerance);
+    if (refined_remapped.tets == refined.tets) {
+      const mapping::PairQuality r = mapping::measure_pair(source, refined, remapped[0], {});
+      EXPECT_LT(std::fabs(q.hausdorff_max - r.hausdorff_max), 2e-4)
+          << q.hausdorff_max << " carried, " << r.hausdorff_max << " mapped again";
+      double field_gap = 0, field_range = 0;
+      for (std::size_t f = 0; f < source.fields.size(); ++f) {
+        if (source.fields[f].location != 0) continue;
+        const auto [lo, hi] =
+            std::minmax_element(source.fields[f].values.begin(), source.fields[f].values.end());
+        field_range = std::max(field_range, *hi - *lo);
+        for (std::size_t v = 0; v < mapped[0].fields[f].size(); ++v)
+          field_gap =
+              std::max(field_gap, std::fabs(mapped[0].fields[f][v] - remapped[0].fields[f][v]));
+      }
+      EXPECT_LT(field_gap, 2e-2 * field_range) << field_gap << " of a range " << field_range;
+    } else {
+      ADD_FAILURE() << "carried and mapped again, refinement bisected other edges";
+    }
     // The same on two threads.
     mapping::RefineOptions two;
     two.threads = 2;

@@ -25,6 +25,11 @@ class SurfaceIndex {
   /// The same, and the index of a closest triangle in *triangle (when not null; untouched if the
   /// surface has no triangles).
   double distance(const double* p, std::size_t* triangle) const;
+  /// Triangle t's three vertex indices as given to the constructor (t < #F; an index returned
+  /// by distance). Valid as long as this index lives.
+  const std::uint32_t* triangle(std::size_t t) const { return &F_[3 * t]; }
+  /// Vertex v's three coordinates (v < #V). Valid as long as this index lives.
+  const double* vertex(std::uint32_t v) const { return &V_[3 * std::size_t(v)]; }
 
  private:
   std::vector<double> V_;
