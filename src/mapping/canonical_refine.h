@@ -85,12 +85,12 @@ double mapped_departure(const mesh::Sample& source, const mesh::Sample& canonica
 /// off that source's face by at least half the most of the triangle's edges, then carries every
 /// source's map onto the bisected mesh (RefineOptions::carry_maps) or maps it again. Rounds go
 /// on from the last mesh until none is marked, a mapping fails or a limit is reached; the round
-/// with the smallest departure is kept. On success `refined` is the canonical kept (a copy of `canonical` when nothing was refined) and
-/// `mapped[i]` is sources[i] mapped onto it. False with `why` when a source cannot be mapped
-/// onto the original canonical; a refined canonical some source cannot be mapped onto is never
-/// kept. `stats` may be null. When `mapped` holds one entry per source on entry, those are taken
-/// as the sources already mapped onto `canonical` (the builder's, which has them) instead of
-/// mapping them again.
+/// with the smallest departure is kept. On success `refined` is the canonical kept (a copy of
+/// `canonical` when nothing was refined) and `mapped[i]` is sources[i] mapped onto it. False with
+/// `why` when a source cannot be mapped onto the original canonical; a refined canonical some
+/// source cannot be mapped onto is never kept. `stats` may be null. When `mapped` holds one entry
+/// per source on entry, those are taken as the sources already mapped onto `canonical` (the
+/// builder's, which has them) instead of mapping them again.
 bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
                       const mesh::Sample& canonical, const mesh::Mapper& mapper,
                       mesh::Sample& refined, std::vector<mesh::MappedSample>& mapped,
