@@ -5,8 +5,9 @@
 #   fuzz_api        every query and evaluation call of the C ABI, with invariant checks
 #   fuzz_codecs     every codec decoder directly, with encode/decode round trips
 # Seeds: the conformance assets (fuzz_open_eval, fuzz_api), encoder output written by
-# fuzz_codecs itself, and src/runtime/fuzz_regressions/TARGET-* (inputs that once failed). Corpora grow in BUILD/corpus/TARGET across runs; crashes are written to
-# BUILD/artifacts/TARGET-*, and a failing target's log tail is printed.
+# fuzz_codecs itself, and src/runtime/fuzz_regressions/TARGET-* (inputs that once failed).
+# Corpora grow in BUILD/corpus/TARGET across runs; crashes are written to
+# BUILD/artifacts/TARGET-*, and a failing target's log tail and input are printed.
 # Usage: scripts/fuzz.sh [SECONDS] [TARGET...]   (BUILD: $CADINTERP_FUZZ_BUILD_DIR or build/fuzz)
 set -euo pipefail
 cd "$(dirname "$0")/.."

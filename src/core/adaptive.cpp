@@ -710,10 +710,8 @@ class AdaptiveDriver {
     std::vector<IPoint> points;
     bool corner_fails = false;
     for (int m = 0; m < (1 << K_); ++m) {
-      IPoint p{};
-      for (int d = 0; d < K_; ++d) p[d] = (m >> d) & 1 ? node.box.hi[d] : node.box.lo[d];
-      corner_fails = corner_fails || !rows_.feasible(p);
-      points.push_back(p);
+      points.push_back(box_corner(node.box, m, K_));
+      corner_fails = corner_fails || !rows_.feasible(points.back());
     }
     if (!corner_fails) {
       points.clear();

@@ -6,8 +6,6 @@
 
 namespace cadinterp::core {
 
-namespace {}  // namespace
-
 Basis::Basis(int K, Degree degree) : degree_(degree), tree_(K) {
   leaf_samples_.resize(1);
   leaf_bsplines_.resize(1);
@@ -216,9 +214,7 @@ bool Basis::corner_fallback_basis(int leaf, ElementBasis* out) const {
   const int corners = 1 << K;
   std::vector<std::pair<int, int>> by_sample;  // (sample id, corner bits: 1 = upper in d)
   for (int m = 0; m < corners; ++m) {
-    IPoint p{};
-    for (int d = 0; d < K; ++d) p[d] = (m >> d) & 1 ? box.hi[d] : box.lo[d];
-    const int k = find_sample(p);
+    const int k = find_sample(box_corner(box, m, K));
     if (k < 0) return false;
     by_sample.emplace_back(k, m);
   }

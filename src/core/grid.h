@@ -58,6 +58,13 @@ inline bool box_contains(const IBox& b, const IPoint& p, int K) {
   return true;
 }
 
+/// Corner `mask` of box b: upper in direction d where bit d of mask is set (first K directions).
+inline IPoint box_corner(const IBox& b, int mask, int K) {
+  IPoint p{};
+  for (int d = 0; d < K; ++d) p[d] = (mask >> d) & 1 ? b.hi[d] : b.lo[d];
+  return p;
+}
+
 struct IPointHash {
   std::size_t operator()(const IPoint& p) const noexcept {
     std::uint64_t h = 0x9e3779b97f4a7c15ull;

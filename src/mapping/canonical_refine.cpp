@@ -7,6 +7,7 @@
 #include <set>
 #include <utility>
 
+#include "mapping/mapping_state.h"
 #include "mapping/parallel_for.h"
 #include "mapping/smooth_surface.h"
 #include "mapping/surface.h"
@@ -181,13 +182,6 @@ SurfacePoint closest_on(const mesh::SurfaceIndex& idx, const double* p) {
   return sp;
 }
 
-void flat_position(const mesh::Sample& s, const SurfacePoint& sp, double* x) {
-  for (int a = 0; a < 3; ++a) {
-    x[a] = 0;
-    for (int k = 0; k < 3; ++k) x[a] += sp.w[k] * s.vertices[3 * std::size_t(sp.v[k]) + a];
-  }
-}
-
 // A source's own surface as carry_map needs it: whole, per face tag, and smooth.
 struct SourceSurface {
   const mesh::SurfaceIndex* whole = nullptr;
@@ -207,11 +201,7 @@ class SourceSurfaces {
  public:
   SourceSurfaces(const std::vector<const mesh::Sample*>& sources, const std::vector<char>& own,
                  int threads)
-      : sources_(sources),
-        whole_(sources.size()),
-        faces_(sources.size()),
-        smooth_(sources.size()),
-        faces_built_(sources.size(), 0) {
+      : sources_(sources), whole_(sources.size()), faces_(sources.size()), smooth_(sources.size()) {
     parallel_for(sources.size(), threads, [&](std::size_t i) {
       if (!own[i])
         whole_[i] =
@@ -220,14 +210,13 @@ class SourceSurfaces {
   }
   const mesh::SurfaceIndex& whole(std::size_t i) const { return *whole_[i]; }
   const std::map<std::int32_t, mesh::SurfaceIndex>& faces(std::size_t i) {
-    if (faces_built_[i]) return faces_[i];
+    if (!faces_[i].empty()) return faces_[i];  // built (a boundary has at least one face)
     const mesh::Sample& s = *sources_[i];
     std::map<std::int32_t, std::vector<std::uint32_t>> by_tag;
     for (std::size_t t = 0; t < s.triangle_count(); ++t)
       by_tag[s.triangle_tags[t]].insert(by_tag[s.triangle_tags[t]].end(), &s.triangles[3 * t],
                                         &s.triangles[3 * t + 3]);
     for (const auto& [tag, F] : by_tag) faces_[i].emplace(tag, mesh::SurfaceIndex(s.vertices, F));
-    faces_built_[i] = 1;
     return faces_[i];
   }
   SourceSurface for_carrying(std::size_t i) {
@@ -240,7 +229,6 @@ class SourceSurfaces {
   std::vector<std::unique_ptr<mesh::SurfaceIndex>> whole_;
   std::vector<std::map<std::int32_t, mesh::SurfaceIndex>> faces_;
   std::vector<std::unique_ptr<SmoothSurface>> smooth_;
-  std::vector<char> faces_built_;
 };
 
 // `m`, `source` mapped onto `prev`, carried onto bisect_edges(prev, edges) without mapping the
@@ -297,7 +285,7 @@ bool carry_map(const mesh::Sample& source, const SourceSurface& surface, const m
     } else if (tags[j].size() == 2 && A && B) {
       for (int round = 0; round < 8; ++round) {
         at[j] = closest_on(round % 2 ? *B : *A, p);
-        flat_position(source, at[j], p);
+        position_of(source, at[j], p);
       }
     } else {
       at[j] = closest_on(*surface.whole, p);
@@ -309,7 +297,7 @@ bool carry_map(const mesh::Sample& source, const SourceSurface& surface, const m
       if (smooth)
         surface.smooth->position(at[j], x);
       else
-        flat_position(source, at[j], x);
+        position_of(source, at[j], x);
       for (std::size_t k = 0; k < source.fields.size(); ++k) {
         const mesh::Field& f = source.fields[k];
         if (f.location != 0) continue;
@@ -357,19 +345,13 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
   // canonical's, so that is its exact map, new vertices on its own surface, and no mapping.
   // Sources are mapped on up to options.threads threads (the mapper is const and thread-safe);
   // the first failure in source order is reported, whichever thread met it.
-  // With `prev` (the mesh `c` was bisected from, and the sources mapped onto it) the other
-  // sources' maps are carried over (carry_map) where options.carry_maps allows it and no tet
+  // With `from_current` (`c` is `current` bisected by history.back()) the other sources' maps
+  // onto `current` are carried over (carry_map) where options.carry_maps allows it and no tet
   // inverts; mapped again otherwise.
-  struct Previous {
-    const mesh::Sample* mesh;
-    const std::vector<mesh::MappedSample>* mapped;
-  };
-  auto carry = [&](std::size_t i, const Previous& prev, mesh::MappedSample& out) {
-    return carry_map(*sources[i], surfaces.for_carrying(i), *prev.mesh, (*prev.mapped)[i],
-                     history.back(), out);
-  };
-  auto map_all = [&](const mesh::Sample& c, const Previous* prev,
-                     std::vector<mesh::MappedSample>& out, std::string& w) {
+  mesh::Sample current = canonical;
+  std::vector<mesh::MappedSample> current_mapped;
+  auto map_all = [&](const mesh::Sample& c, bool from_current, std::vector<mesh::MappedSample>& out,
+                     std::string& w) {
     out.assign(sources.size(), mesh::MappedSample());
     std::vector<std::string> whys(sources.size());
     std::vector<char> ok(sources.size(), 1), carried(sources.size(), 0);
@@ -386,7 +368,9 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
         for (mesh::Field& f : b.fields) out[i].fields.push_back(std::move(f.values));
         return;
       }
-      if (prev && options.carry_maps && carry(i, *prev, out[i])) {
+      if (from_current && options.carry_maps &&
+          carry_map(*sources[i], surfaces.for_carrying(i), current, current_mapped[i],
+                    history.back(), out[i])) {
         carried[i] = 1;
         return;
       }
@@ -397,7 +381,7 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
         w = whys[i];
         return false;
       }
-    if (prev)
+    if (from_current)
       for (std::size_t i = 0; i < sources.size(); ++i)
         if (!own[i]) ++(carried[i] ? st.carried : st.remapped);
     return true;
@@ -425,13 +409,12 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
     return worst.empty() ? 0.0 : *std::max_element(worst.begin(), worst.end());
   };
   refined = canonical;
-  if (mapped.size() != sources.size() && !map_all(refined, nullptr, mapped, why)) return false;
+  if (mapped.size() != sources.size() && !map_all(refined, false, mapped, why)) return false;
   std::set<std::array<std::uint32_t, 2>> edges;
   st.before = st.after = measure(refined, mapped, edges);
   // Rounds go on from the last refined mesh even where one did not lower the departure (the
   // bend's diagonals are split the round after its edges across it); the best is kept.
-  mesh::Sample current = canonical;
-  std::vector<mesh::MappedSample> current_mapped = mapped;
+  current_mapped = mapped;
   const double limit = (1.0 + options.max_growth) * static_cast<double>(canonical.vertex_count());
   for (int round = 0; round < options.rounds && !edges.empty(); ++round) {
     if (static_cast<double>(current.vertex_count() + edges.size()) > limit) {
@@ -443,8 +426,7 @@ bool refine_canonical(const std::vector<const mesh::Sample*>& sources,
     mesh::Sample next = bisect_edges(current, history.back());
     std::vector<mesh::MappedSample> next_mapped;
     std::string w;
-    const Previous prev{&current, &current_mapped};
-    if (!map_all(next, &prev, next_mapped, w)) {
+    if (!map_all(next, true, next_mapped, w)) {
       st.stopped = "round " + std::to_string(round + 1) + " could not be mapped: " + w;
       break;
     }
