@@ -12,12 +12,13 @@
 // conformance assets are seeds as they are. Checksums are recomputed before opening
 // (fuzz_checksums.h), so mutations reach the index checks and the decoders.
 //
-// Build and run: scripts/fuzz.sh [SECONDS] (seeds: conformance/cases/*/*/asset.cadi).
+// Build and run: scripts/fuzz.sh [SECONDS] (seeds: conformance/cases/*/*/asset.cadi and
+// src/runtime/fuzz_regressions/fuzz_api-*).
 //
 // Why one file of over 800 lines: it holds one contract check per entry point of cadinterp.h,
 // side by side in the header's order, so that a declaration added there gets its check next to
 // its neighbours'; splitting by entry point would scatter the shared script and trailer parsing.
-// One file past 800 lines: a libFuzzer target is one program, its checks one contract.
+// What is shared with fuzz_open_eval (the checksum fix-up) lives in fuzz_checksums.h.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <algorithm>
 #include <cmath>
