@@ -39,7 +39,7 @@ target_link_libraries(cadinterp_format
   PRIVATE PkgConfig::XXHASH Threads::Threads cadinterp_warnings)
 
 if(CADINTERP_BUILD_TESTING)
-  cadinterp_add_test(format_tests asset_test.cpp LIBS cadinterp_format PkgConfig::XXHASH)
+  cadinterp_add_test(format_tests asset_test.cpp error_model_test.cpp LIBS cadinterp_format PkgConfig::XXHASH)
   target_compile_definitions(format_tests PRIVATE
     CADINTERP_CONFORMANCE_DIR="${PROJECT_SOURCE_DIR}/conformance/cases")
   # Schema evolution: the current schema must conform to every released one, and the check must
