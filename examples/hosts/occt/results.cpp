@@ -428,6 +428,42 @@ void print_table2(const std::vector<Row>& rows) {
   }
 }
 
+// The feasible space (paper §4: an element is usable when its own samples are): the share of
+// the random points the runtime refuses, of those the host truly fails at, and the excess,
+// points refused although the host regenerates them.
+void print_feasibility(const std::vector<Row>& rows) {
+  std::printf(
+      "\nFeasible model    points  refused by the runtime  host fails  excess (refused, host "
+      "regenerates)\n");
+  for (const Row& r : rows) {
+    if (!r.accuracy || r.acc.points == 0) continue;
+    const double pc = 100.0 / r.acc.points;
+    std::printf("         %-11s  %d     %5.1f %%                 %5.1f %%     %5.1f %%\n",
+                r.model.c_str(), r.acc.points, r.acc.infeasible * pc,
+                (r.acc.infeasible - r.acc.lost) * pc, r.acc.lost * pc);
+  }
+}
+
+// The calibration of cadinterp_error_estimates against the true errors of Table 2, per
+// quantity: the share of points where the estimate bounds the error, and the median and 10th
+// percentile of estimate / true error (targets: >= 90 % bounded, median within 3x).
+void print_estimates(const std::vector<Row>& rows) {
+  std::printf(
+      "\nEstimate model    quantity        points  bounded  median est/true  p10 est/true\n");
+  for (const Row& r : rows) {
+    if (!r.accuracy) continue;
+    if (r.acc.estimate_points.empty()) {
+      std::printf("         %-11s  n/a: the asset has no error model\n", r.model.c_str());
+      continue;
+    }
+    for (std::size_t q = 0; q < r.acc.estimate_points.size(); ++q)
+      std::printf("         %-11s  %-14s  %6d  %5.1f %%  %15.2f  %12.2f\n", r.model.c_str(),
+                  q ? r.acc.field_names[q - 1].c_str() : "geometry", r.acc.estimate_points[q],
+                  100 * r.acc.estimate_coverage[q], r.acc.estimate_median_ratio[q],
+                  r.acc.estimate_p10_ratio[q]);
+  }
+}
+
 // The interpolated meshes' volume against the exact one.
 void print_volumes(const std::vector<Row>& rows) {
   std::printf(
@@ -500,6 +536,8 @@ int main(int argc, char** argv) {
               a.full ? "full-size" : "small", a.degree == 3 ? "cubic" : "linear");
   print_table1(rows, a.simulate_mapped);
   print_table2(rows);
+  print_feasibility(rows);
+  print_estimates(rows);
   print_volumes(rows);
   return 0;
 }
