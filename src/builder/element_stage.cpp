@@ -132,6 +132,8 @@ class ElementStage {
   bool carry(int k, int s, int nrow, int crow, MappedSample& res, NeighbourTransferStats& st);
   void compare_routes(int row, int crow, const MappedSample* viab, NeighbourTransferStats& st);
   void measure_error_model(std::size_t e, int leaf, int crow, format::ElementData& ed);
+  double geometry_floor(std::size_t e, int crow, const int* terms, int n, bool remapped,
+                        const format::ElementData& ed);
   bool measure_at(std::size_t e, int at, int crow, const std::vector<double>& x,
                   std::vector<double>& q);
   int feasible_row(const std::vector<double>& x) const;
@@ -215,6 +217,43 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
   write_element(ed, canon, crow, terms, n, carried);
   tally.stored_meshes = n;
   measure_error_model(e, leaf, crow, ed);
+  if (!ed.error_model.empty()) {
+    const bool moved = use_refined || std::any_of(bridged.begin(), bridged.end(),
+                                                  [](const auto& b) { return b != nullptr; });
+    ed.geometry_floor = geometry_floor(e, crow, terms, n, moved, ed);
+    if (ed.error_estimate >= 0) ed.error_estimate += ed.geometry_floor;
+  }
+}
+
+// The geometry's error at the element's own samples (format 1.3 ElementMeshes.geometry_floor),
+// where the error model's shape is 0: at such a sample the element evaluates to the sample's
+// stored mesh, in the canonical mesh's combinatorics, and the host answers with the sample's own
+// mesh; the two differ where the term was mapped (§6), by how the two meshes' flat triangles
+// cut the same surface. The largest symmetric Hausdorff distance over the samples in the
+// element's box, relative to the sample's diagonal. A term stored as its sample's own mesh
+// (same combinatorics as the canonical sample, not remapped) adds nothing.
+double ElementStage::geometry_floor(std::size_t e, int crow, const int* terms, int n, bool remapped,
+                                    const format::ElementData& ed) {
+  double lo[core::kMaxDim], hi[core::kMaxDim], x[core::kMaxDim];
+  cb_.element_box(static_cast<int>(e), lo, hi);
+  double floor = 0;
+  for (int t = 0; t < n; ++t) {
+    cb_.sample_position(terms[t], x);
+    bool inside = true;
+    for (int d = 0; d < K_; ++d) {
+      const double slack = 1e-9 * (hi[d] - lo[d]);
+      inside = inside && x[d] >= lo[d] - slack && x[d] <= hi[d] + slack;
+    }
+    const int row = run_.sample_row[static_cast<std::size_t>(terms[t])];
+    if (!inside || (!remapped && problem_.same_class(row, crow))) continue;
+    const Sample& own = problem_.sample(row);
+    const std::vector<float>& p = ed.positions[static_cast<std::size_t>(t)];
+    const std::vector<double> stored(p.begin(), p.end());
+    floor =
+        std::max(floor, symmetric_hausdorff(stored, ed.triangles, own.vertices, own.triangles, 1) /
+                            own.bbox_diagonal());
+  }
+  return floor;
 }
 
 // The row whose x is exactly `x` (computed as the driver computes grid points) if the host

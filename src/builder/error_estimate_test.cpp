@@ -184,6 +184,37 @@ TEST(ErrorEstimates, AssetsWithoutAModelOpenAndReportUnknown) {
   EXPECT_EQ(e, syn.content.elements[static_cast<std::size_t>(element)].error_estimate);
 }
 
+// The geometry floor (format 1.3 ElementMeshes.geometry_floor), the geometry's error at the
+// element's own samples, adds to the geometry's estimate everywhere in the element, also at
+// its corners where the shape is 0, and to no field's.
+TEST(ErrorEstimates, GeometryFloorAddsToTheGeometryOnly) {
+  format::SyntheticSpec s;
+  s.K = 2;
+  s.fields = true;
+  format::SyntheticAsset syn = format::make_synthetic_asset(s);
+  const std::size_t rows = 1 + syn.content.fields.size();
+  for (format::ElementData& ed : syn.content.elements)
+    if (ed.vertex_count > 0) {
+      ed.error_model.assign(rows * 3, 0.01);  // the same row for every quantity
+      ed.geometry_floor = 0.25;
+    }
+  const std::vector<std::uint8_t> bytes = format::write_asset(syn.content, {});
+  cadinterp_asset* raw = nullptr;
+  ASSERT_EQ(cadinterp_open_memory(bytes.data(), bytes.size(), 1, &raw), CADINTERP_OK);
+  const AssetPtr a(raw);
+  std::vector<double> out(rows);
+  int count = 0;
+  for (const auto& x : std::vector<std::vector<double>>{{0.3, 0.6}, {0.0, 0.0}, {0.71, 0.12}}) {
+    ASSERT_EQ(
+        cadinterp_error_estimates(a.get(), x.data(), out.data(), static_cast<int>(rows), &count),
+        CADINTERP_OK);
+    for (std::size_t f = 1; f < rows; ++f) {
+      EXPECT_GE(out[f], 0);
+      EXPECT_NEAR(out[0], out[f] + 0.25, 1e-12) << "at " << x[0] << ", " << x[1];
+    }
+  }
+}
+
 // Calibration against a host whose truth is a closed form: at 200 random points (other points
 // than the calibration's), the estimate bounds the true error (geometry: the Hausdorff distance
 // to the host's mesh at x; fields: against the host's closed-form values on its mesh at x, the

@@ -364,13 +364,19 @@ void check_ref(const fb::BlobRef* r, const char* what, std::uint64_t section,
   extents.push_back({r->offset(), r->size(), r->checksum(), static_cast<std::uint8_t>(r->codec())});
 }
 
-// Element e's error model (format 1.3; error_model.h): absent, or `rows` (1 + #fields) by
-// (K + 1) finite values, in a file that says 1.3 or more.
+// Element e's error model (format 1.3; error_model.h): absent (and no geometry floor), or
+// `rows` (1 + #fields) by (K + 1) finite values and a finite geometry floor >= 0, in a file that
+// says 1.3 or more.
 void check_error_model(const fb::ElementMeshes* m, int e, int K, std::size_t rows,
                        std::uint16_t minor) {
   const auto* model = m->error_model();
-  if (!model) return;
   const std::string where = "element " + std::to_string(e) + ": ";
+  if (!model) {
+    if (m->geometry_floor() != 0) corrupt(where + "geometry floor without an error model");
+    return;
+  }
+  if (!std::isfinite(m->geometry_floor()) || !(m->geometry_floor() >= 0))
+    corrupt(where + "geometry floor not finite and >= 0");
   if (minor < kMinorOutputs)
     corrupt(where + "error model in a file of format 1." + std::to_string(minor) +
             " (1.3 content)");
@@ -392,7 +398,8 @@ void check_element(const fb::ElementMeshes* m, int e, const core::CompiledBasis&
   if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
   if (m->vertex_count() == 0) {
     if (basis.element_feasible(e)) corrupt("feasible element without meshes");
-    if (m->error_model()) corrupt("element " + std::to_string(e) + ": error model without meshes");
+    if (m->error_model() || m->geometry_floor() != 0)
+      corrupt("element " + std::to_string(e) + ": error model without meshes");
     return;
   }
   check_error_model(m, e, basis.dim(), model_rows, minor);

@@ -557,6 +557,36 @@ TEST(Asset, WriterRejectsInconsistentContent) {
   EXPECT_THROW(write_asset(c, {}), FormatError);
 }
 
+// The geometry floor (format 1.3, error_model.h): written with an error model, read back, and a
+// floor that is negative, NaN or without a model is refused by the writer and, edited into a
+// file, by the reader.
+TEST(Asset, GeometryFloorRoundTripsAndBadOnesAreRefused) {
+  AssetContent c = small_asset().content;
+  const std::size_t W = static_cast<std::size_t>(c.basis->dim() + 1) * (1 + c.fields.size());
+  for (ElementData& ed : c.elements)
+    if (ed.vertex_count > 0) {
+      ed.error_model.assign(W, 0.01);
+      ed.geometry_floor = 0.25;
+    }
+  std::vector<std::uint8_t> good = write_asset(c, {});
+  const auto r = AssetReader::open_memory(good.data(), good.size(), true);
+  const int e = feasible_elements(*r).at(0);
+  EXPECT_EQ(r->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e))->geometry_floor(),
+            0.25);
+  for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    AssetContent d = c;
+    d.elements[static_cast<std::size_t>(e)].geometry_floor = bad;
+    EXPECT_THROW(write_asset(d, {}), FormatError) << bad;
+    std::vector<std::uint8_t> b = good;
+    ASSERT_TRUE(element_of(b, e)->mutate_geometry_floor(bad));
+    rehash(b);
+    EXPECT_EQ(open_status(b), Status::CorruptIndex) << bad;
+  }
+  AssetContent d = c;
+  d.elements[static_cast<std::size_t>(e)].error_model.clear();
+  EXPECT_THROW(write_asset(d, {}), FormatError) << "a floor without a model";
+}
+
 }  // namespace
 }  // namespace cadinterp::format
 

@@ -133,13 +133,19 @@ void check_element_arrays(const ElementData& ed, int e, int terms, const FieldSi
     if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
 }
 
-// Checks element e's error model: empty, or (1 + #fields) by (K + 1) finite values.
+// Checks element e's error model: empty (and no geometry floor), or (1 + #fields) by (K + 1)
+// finite values and a finite geometry floor >= 0.
 void check_error_model(const AssetContent& c, const ElementData& ed, int e) {
-  if (ed.error_model.empty()) return;
+  if (ed.error_model.empty()) {
+    if (ed.geometry_floor != 0) bad("element " + std::to_string(e) + ": floor without a model");
+    return;
+  }
   const std::size_t want = (1 + c.fields.size()) * static_cast<std::size_t>(c.basis->dim() + 1);
   if (ed.error_model.size() != want) bad("element " + std::to_string(e) + ": error model size");
   for (double v : ed.error_model)
     if (!std::isfinite(v)) bad("element " + std::to_string(e) + ": error model not finite");
+  if (!(ed.geometry_floor >= 0) || !std::isfinite(ed.geometry_floor))
+    bad("element " + std::to_string(e) + ": geometry floor not finite and >= 0");
 }
 
 // Encodes element e's meshes into the blob section and returns its index table; an element
@@ -202,6 +208,7 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
   eb.add_error_estimate(ed.error_estimate);
   eb.add_canonical_positions(&canonical);
   if (!ed.error_model.empty()) eb.add_error_model(model_v);
+  eb.add_geometry_floor(ed.geometry_floor);  // the default, 0, is not written
   return eb.Finish();
 }
 

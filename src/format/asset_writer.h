@@ -53,6 +53,9 @@ struct ElementData {
   /// Format 1.3 (error_model.h): (1 + #fields) by (K + 1) errors measured by the builder, finite
   /// (negative: not measured); empty when not measured (a feasible element only).
   std::vector<double> error_model;
+  /// Format 1.3 (error_model.h): the geometry's error at the element's own samples, finite and
+  /// >= 0; 0 when no stored mesh departs from its sample's own (not written).
+  double geometry_floor = 0.0;
 };
 
 /// A point where the builder's host failed.

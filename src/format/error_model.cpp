@@ -2,6 +2,7 @@
 #include "format/error_model.h"
 
 #include <algorithm>
+#include <limits>
 
 namespace cadinterp::format {
 
@@ -36,10 +37,12 @@ double error_model_max(const double* row, int K, bool /*cubic*/) {
   return m;
 }
 
-double error_model_reported(double est, bool cubic, bool geometry) {
+double error_model_reported(double est, bool cubic, bool geometry, double floor) {
   if (!(est >= 0)) return -1.0;
   const double v = est * (cubic ? kErrorModelSafetyCubic : kErrorModelSafetyLinear);
-  return geometry ? std::max(v, kGeometryFloor) : v;
+  // Finite rows can still overflow here; the largest double says "no bound" and stays finite.
+  return std::min(geometry ? std::max(v + floor, kGeometryFloor) : v,
+                  std::numeric_limits<double>::max());
 }
 
 }  // namespace cadinterp::format

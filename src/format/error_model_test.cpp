@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -126,8 +127,13 @@ TEST(ErrorModel, LinearRowsWithMissingOrZeroEntries) {
   EXPECT_DOUBLE_EQ(error_model_estimate(zero_dirs, 2, false, edge), 0.1);
   EXPECT_DOUBLE_EQ(error_model_estimate(missing, 2, false, t), 0.2);
   EXPECT_DOUBLE_EQ(error_model_estimate(missing, 2, false, edge), 0.2);
-  EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, false), 0.1 * kErrorModelSafetyLinear);
-  EXPECT_DOUBLE_EQ(error_model_reported(0.0, false, true), kGeometryFloor);
+  EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, false, 0.5), 0.1 * kErrorModelSafetyLinear);
+  EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, true, 0.5),
+                   0.1 * kErrorModelSafetyLinear + 0.5);
+  EXPECT_DOUBLE_EQ(error_model_reported(0.0, false, true, 0.0), kGeometryFloor);
+  EXPECT_LT(error_model_reported(-1.0, false, true, 0.5), 0);
+  const double huge = std::numeric_limits<double>::max();
+  EXPECT_EQ(error_model_reported(huge, false, true, huge), huge) << "overflow stays finite";
 }
 
 }  // namespace
