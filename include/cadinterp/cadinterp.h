@@ -359,12 +359,15 @@ CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a
  * of a value relative to the range of field f over the host's mesh at x), in field order.
  * Estimated from the errors the builder measured on the element holding x (at its centre and,
  * per direction, at its face centres; fileformat/SPEC.md "Error model"): on linear assets
- * shaped as multilinear interpolation errs, sum_d e_d 4 t_d (1 - t_d) at x's place t in the
- * element, zero at the samples; on cubic assets the largest measured error, constant over the
- * element. Calibrated on held-out random points of analytic hosts to bound the true error at
- * about 90 % of points (docs/error-estimates.md gives the measured coverage and
- * the median ratio to the true error per model). It does not include the float storage error
- * (cadinterp_field's max_abs_error) or the truth's own discretization error.
+ * shaped as multilinear interpolation errs, in 4 t_d (1 - t_d) at x's place t in the element,
+ * equal to the measured error at its centre and zero at the samples; on cubic assets the
+ * largest measured error, constant over the element. The geometry's adds the element's error
+ * at its own samples, where a mapped sample's stored mesh and the host's own mesh of it cut
+ * the same surface with other triangles. Calibrated on held-out random points of analytic and
+ * OpenCASCADE hosts to bound the true error at about 90 % of points (docs/error-estimates.md
+ * gives the measured coverage and the median ratio to the true error per model). The fields'
+ * do not include the float storage error (cadinterp_field's max_abs_error) or the difference
+ * between two meshes' interpolations of one field (the truth's own discretization error).
  * Assets without the builder's error model (written before format 1.3) report every entry as
  * -1 (unknown).
  * @param[in]  x         K parameter values
