@@ -132,7 +132,8 @@ class ElementStage {
   bool carry(int k, int s, int nrow, int crow, MappedSample& res, NeighbourTransferStats& st);
   void compare_routes(int row, int crow, const MappedSample* viab, NeighbourTransferStats& st);
   void measure_error_model(std::size_t e, int leaf, int crow, format::ElementData& ed);
-  double geometry_floor(std::size_t e, int crow, const int* terms, int n, bool remapped,
+  double geometry_floor(int leaf, int crow, const int* terms, int n,
+                        const std::vector<const MappedSample*>& carried,
                         const format::ElementData& ed);
   bool measure_at(std::size_t e, int at, int crow, const std::vector<double>& x,
                   std::vector<double>& q);
@@ -218,9 +219,7 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
   tally.stored_meshes = n;
   measure_error_model(e, leaf, crow, ed);
   if (!ed.error_model.empty()) {
-    const bool moved = use_refined || std::any_of(bridged.begin(), bridged.end(),
-                                                  [](const auto& b) { return b != nullptr; });
-    ed.geometry_floor = geometry_floor(e, crow, terms, n, moved, ed);
+    ed.geometry_floor = geometry_floor(leaf, crow, terms, n, carried, ed);
     if (ed.error_estimate >= 0) ed.error_estimate += ed.geometry_floor;
   }
 }
@@ -231,21 +230,17 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
 // mesh; the two differ where the term was mapped (§6), by how the two meshes' flat triangles
 // cut the same surface. The largest symmetric Hausdorff distance over the samples in the
 // element's box, relative to the sample's diagonal. A term stored as its sample's own mesh
-// (same combinatorics as the canonical sample, not remapped) adds nothing.
-double ElementStage::geometry_floor(std::size_t e, int crow, const int* terms, int n, bool remapped,
+// (its view, carried[t] null, of the canonical sample's combinatorics) adds nothing.
+double ElementStage::geometry_floor(int leaf, int crow, const int* terms, int n,
+                                    const std::vector<const MappedSample*>& carried,
                                     const format::ElementData& ed) {
-  double lo[core::kMaxDim], hi[core::kMaxDim], x[core::kMaxDim];
-  cb_.element_box(static_cast<int>(e), lo, hi);
+  const core::IBox& box = tree_.node(leaf).box;
   double floor = 0;
   for (int t = 0; t < n; ++t) {
-    cb_.sample_position(terms[t], x);
-    bool inside = true;
-    for (int d = 0; d < K_; ++d) {
-      const double slack = 1e-9 * (hi[d] - lo[d]);
-      inside = inside && x[d] >= lo[d] - slack && x[d] <= hi[d] + slack;
-    }
     const int row = run_.sample_row[static_cast<std::size_t>(terms[t])];
-    if (!inside || (!remapped && problem_.same_class(row, crow))) continue;
+    if (!core::box_contains(box, basis_.sample(terms[t]), K_) ||
+        (!carried[static_cast<std::size_t>(t)] && problem_.same_class(row, crow)))
+      continue;
     const Sample& own = problem_.sample(row);
     const std::vector<float>& p = ed.positions[static_cast<std::size_t>(t)];
     const std::vector<double> stored(p.begin(), p.end());
@@ -327,7 +322,7 @@ void ElementStage::measure_error_model(std::size_t e, int leaf, int crow, format
     for (std::size_t i = 0; known && i < Q; ++i)
       ed.error_model[i * W + 1 + static_cast<std::size_t>(d)] = worst[i];
   }
-  ed.error_estimate = format::error_model_max(ed.error_model.data(), K_, cubic_);
+  ed.error_estimate = format::error_model_max(ed.error_model.data(), K_);
 }
 
 // Adds element e's tally to the build's report and result (in element order, on one thread).

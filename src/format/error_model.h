@@ -41,7 +41,7 @@ double error_model_estimate(const double* row, int K, bool cubic, const double* 
 
 /// The largest value of error_model_estimate over the element: the largest of E and the e_d
 /// (linear: at the centre, or at the middle of the edges along the largest e_d).
-double error_model_max(const double* row, int K, bool cubic);
+double error_model_max(const double* row, int K);
 
 /// What cadinterp_error_estimates reports for an unscaled estimate `est` of a quantity: -1 when
 /// it is unknown (negative), else est times the degree's safety factor, plus for the geometry

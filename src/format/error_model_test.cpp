@@ -69,7 +69,7 @@ TEST(ErrorModel, LinearShapeIsExactForAQuadraticOfOneSign) {
                   largest(interpolation_errors(a, K, t)), 1e-12)
           << "K " << K;
     }
-    EXPECT_NEAR(error_model_max(row.data(), K, false), row[0], 1e-15);
+    EXPECT_NEAR(error_model_max(row.data(), K), row[0], 1e-15);
   }
 }
 
@@ -121,7 +121,7 @@ TEST(ErrorModel, LinearRowsWithMissingOrZeroEntries) {
   const double unknown[3] = {-1, 0.1, 0.1}, zero_dirs[3] = {0.2, 0, 0},
                missing[3] = {0.2, -1, 0.05};
   EXPECT_LT(error_model_estimate(unknown, 2, false, t), 0);
-  EXPECT_LT(error_model_max(unknown, 2, false), 0);
+  EXPECT_LT(error_model_max(unknown, 2), 0);
   EXPECT_DOUBLE_EQ(error_model_estimate(zero_dirs, 2, false, t), 0.2);
   EXPECT_DOUBLE_EQ(error_model_estimate(zero_dirs, 2, false, corner), 0.0);
   EXPECT_DOUBLE_EQ(error_model_estimate(zero_dirs, 2, false, edge), 0.1);
