@@ -339,8 +339,12 @@ typedef struct cadinterp_build_options {
    * depends on a point where the host failed is split toward the feasibility boundary (along the
    * direction separating its feasible from its infeasible samples), so that the runtime refuses
    * little more than the region where the host truly fails; an element whose samples and centre
-   * all fail is never split (its children would keep a failing corner). Once
-   * ceil(infeasible_call_fraction x max_samples) points have failed, no element is split any
+   * all fail is never split (its children would keep a failing corner). Each refinement wave
+   * splits these elements first, largest first, and their children that still depend on a failed
+   * point at once, before any element above tolerance: when the budget ends, the feasible space
+   * has been kept first (a refused element answers nothing; one above tolerance answers, with an
+   * error its estimate reports). Once ceil(infeasible_call_fraction x max_samples) points have
+   * failed, no element is split any
    * more for being infeasible (elements above tolerance still are); the splits already decided
    * still evaluate their points, so the failures can exceed the bound by one refinement wave's
    * points. 0: infeasible elements are never split. Failures are counted by point (host or

@@ -201,11 +201,7 @@ class AdaptiveDriver {
       problem_.on_wave(static_cast<int>(tree_.leaves().size()));
       evaluate_wave_points(wave);
       ask_wave_errors(wave);
-      for (int leaf : wave)
-        if (!check_leaf(leaf)) {
-          stop = true;
-          break;
-        }
+      stop = !decide_wave(wave);
     }
     finish();
     return std::move(res_);
@@ -348,6 +344,42 @@ class AdaptiveDriver {
       if (tree_.is_leaf(leaf)) wave.push_back(leaf);
     }
     return wave;
+  }
+
+  // Decides the wave's elements (check_leaf); false when the sample budget stops the run. With
+  // refine_infeasible the refused elements come first, largest first, and a split's children
+  // that are still refused join them at once: a refused element answers nothing over its whole
+  // box where one above tolerance answers with an error its estimate reports, so the budget
+  // keeps the feasible space first, and the boundary is approached a level per split rather
+  // than a wave per split (max_infeasible_points bounds what that costs).
+  bool decide_wave(const std::vector<int>& wave) {
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> refused_queue;
+    std::vector<int> rest;
+    for (int leaf : wave)
+      if (opt_.refine_infeasible && refused(leaf))
+        refused_queue.emplace(level_sum(tree_.node(leaf), K_), leaf);
+      else
+        rest.push_back(leaf);
+    while (!refused_queue.empty()) {
+      const int leaf = refused_queue.top().second;
+      refused_queue.pop();
+      if (!tree_.is_leaf(leaf)) continue;
+      if (!check_leaf(leaf)) return false;
+      if (tree_.is_leaf(leaf)) continue;
+      const KdTree::Node& parent = tree_.node(leaf);
+      const int kids[2] = {parent.child[0], parent.child[1]};
+      rows_.ensure({centre_of(tree_.node(kids[0]), K_), centre_of(tree_.node(kids[1]), K_)});
+      for (int kid : kids)
+        if (refused(kid)) refused_queue.emplace(level_sum(tree_.node(kid), K_), kid);
+    }
+    for (int leaf : rest)
+      if (!check_leaf(leaf)) return false;
+    return true;
+  }
+
+  // Whether the element answers nothing: its centre or one of its terms is infeasible.
+  bool refused(int leaf) {
+    return !rows_.feasible(centre_of(tree_.node(leaf), K_)) || !usable(leaf);
   }
 
   // The wave's points are evaluated together (§4.2's element centres, then the face centres of

@@ -72,7 +72,9 @@ struct AdaptiveOptions {
   /// in every direction, adaptive.cpp gives the measurement). An element lying wholly inside the
   /// infeasible region (its centre and every sample in its closed box infeasible) is not split:
   /// its children would keep an infeasible corner, so splitting buys nothing and every new point
-  /// fails.
+  /// fails. Each wave decides these elements first, largest first, and their children that are
+  /// still refused at once, before the elements above tolerance (the feasible space is kept
+  /// first when the budget ends); max_infeasible_points bounds what that costs.
   bool refine_infeasible = true;
   /// Bounds the points that fail spent on that refinement: once this many evaluated points are
   /// infeasible (every failure counts, whatever element asked for it), no element is split for

@@ -3,18 +3,21 @@
 // sample counts at equal error, and the speedup from 1 to 2 threads. With --calls, only the
 // host's cost (§4.2): host calls against kept samples and the measured error, per model. With
 // --infeasible, the feasible space kept: on hosts failing in 16 % of their box (fail_region=2),
-// the part of the box the runtime refuses against the part where the host fails. With
+// the part of the box the runtime refuses against the part where the host fails, at each of
+// --budgets (default 120,600). With
 // --estimates, the calibration of cadinterp_error_estimates per model and degree: on two
 // disjoint sets of random points (seeds 7 and 11), per quantity, the fraction of points where
 // the estimate bounds the error measured against the host and the median estimate / error.
 //   cadinterp-builder-figures [--points N] [--host-options OPTS]
-//                             [--calls | --infeasible | --estimates] [--model NAME]
+//                             [--calls | --infeasible [--budgets N,...] | --estimates]
+//                             [--model NAME]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -122,15 +125,30 @@ std::vector<char> refused_points(const std::string& path, const std::vector<doub
   return refused;
 }
 
+// "120,600" as {120, 600}; empty when an entry is not a whole number >= 1.
+std::vector<int> parse_budgets(const char* text) {
+  std::vector<int> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const long v = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end || v < 1 || v > 1000000) return {};
+    out.push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
 // The feasible space kept: per model, degree, budget and bound on failed points
 // (infeasible_call_fraction; "none" = no bound), the fraction of `points` random points the
 // runtime refuses, the fraction where the host fails, the refused points the host regenerates
 // ("lost") and the points the runtime interpolates although the host fails there ("across"),
 // with the host evaluations of the build and those that failed.
-int infeasible_table(int points, const std::string& only, const std::string& path) {
+int infeasible_table(int points, const std::vector<int>& budgets, const std::string& only,
+                     const std::string& path) {
   std::printf(
       "model    deg  budget  bound  samples  refused %%  host fails %%  excess %%  lost %%  "
-      "across %%  host evals  failed evals  wall s\n");
+      "across %%  host evals  failed evals  max error  wall s\n");
   for (const char* model : {"plate", "bracket"}) {
     if (!only.empty() && only != model) continue;
     const std::string opts =
@@ -149,9 +167,9 @@ int infeasible_table(int points, const std::string& only, const std::string& pat
       fails.push_back(h.evaluate(&xs[xs.size() - static_cast<std::size_t>(K)]).feasible ? 0 : 1);
     }
     for (int degree : {1, 3})
-      for (int budget : {120, 600})
+      for (int budget : budgets)
         for (double bound : {0.25, -1.0}) {
-          if (budget < 600 && bound < 0) continue;  // 120 samples never reach the bound
+          if (budget < 600 && bound < 0) continue;  // small budgets never reach the bound
           cadinterp_build_options o = figure_options();
           o.degree = degree;
           o.max_samples = budget;
@@ -167,10 +185,12 @@ int infeasible_table(int points, const std::string& only, const std::string& pat
           }
           const double pc = 100.0 / points;
           std::printf(
-              "%-8s %3d  %6d  %5s  %7d  %9.1f  %12.1f  %8.1f  %6.1f  %8.1f  %10d  %12d  %6.1f\n",
+              "%-8s %3d  %6d  %5s  %7d  %9.1f  %12.1f  %8.1f  %6.1f  %8.1f  %10d  %12d  %9.2f  "
+              "%6.1f\n",
               model, degree, budget, bound < 0 ? "none" : "0.25", r.report.samples, n_refused * pc,
               n_fails * pc, (n_refused - n_fails) * pc, lost * pc, across * pc,
-              r.report.host_evaluations, r.report.infeasible_host_evaluations, r.seconds);
+              r.report.host_evaluations, r.report.infeasible_host_evaluations, r.report.max_error,
+              r.seconds);
         }
   }
   std::filesystem::remove(path);
@@ -219,6 +239,7 @@ int main(int argc, char** argv) {
   int points = 200;
   bool calls = false, infeasible = false, estimates = false;
   std::string options = "cells=6", only_model;
+  std::vector<int> budgets{120, 600};
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
@@ -232,12 +253,18 @@ int main(int argc, char** argv) {
       points = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--host-options") && i + 1 < argc)
       options = argv[++i];
+    else if (!std::strcmp(argv[i], "--budgets") && i + 1 < argc)
+      budgets = parse_budgets(argv[++i]);
+  }
+  if (budgets.empty()) {
+    std::fprintf(stderr, "--budgets: a comma-separated list of sample budgets >= 1\n");
+    return 2;
   }
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const std::string path =
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, only_model, path);
-  if (infeasible) return infeasible_table(points, only_model, path);
+  if (infeasible) return infeasible_table(points, budgets, only_model, path);
   if (estimates) return estimates_table(options, points, only_model, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
