@@ -3,9 +3,10 @@
 // feasibility boundary with the cubic corner fallback, the split) all read and write one state
 // (tree, basis, point rows, per-node direction estimates, queue) within a wave; spread over files
 // they would pass that state around. The seams if it grows further: the direction probes
-// (lazy_face_centres) and the feasibility group (usable_basis, infeasible_split,
+// (lazy_face_centres) and the feasibility group (usable_basis, refused, infeasible_split,
 // any_own_sample_feasible, separating_direction), which reads only the basis and the rows'
-// feasibility and could move behind a feasibility predicate.
+// feasibility and could move behind a feasibility predicate; decide_wave's refused-first order
+// would stay, since it interleaves that group with check_leaf.
 #include "core/adaptive.h"
 
 #include <algorithm>
