@@ -83,6 +83,17 @@ async function compareWithNative(page, asset, opts = {}) {
   return { st, surf, nat };
 }
 
+/** The largest angle (rad) between a unit vector turning through `span` and the direction of
+ *  the linear interpolant of its two end values. */
+function interpolationLag(span) {
+  let lag = 0;
+  for (let i = 0; i <= 1000; ++i) {
+    const s = i / 1000;
+    lag = Math.max(lag, Math.abs(Math.atan2(s * Math.sin(span), 1 - s + s * Math.cos(span)) - s * span));
+  }
+  return lag;
+}
+
 describe('explorer on the analytic bracket (with an infeasible corner)', () => {
   let asset, explorer, page, problems, params;
 
@@ -253,8 +264,13 @@ describe('explorer on the analytic bracket (with an infeasible corner)', () => {
       // outward normal, so the arrow points along minus it.
       const t = (angle * Math.PI) / 180;
       const expected = [-Math.cos(t), -Math.sin(t), 0];
+      // 90 degrees is a start-grid sample at the other parameters' defaults, where the
+      // interpolant is the host. Between samples the linear interpolant of the rotating load
+      // lags the rotation: across a start-grid element (45 degrees of bend, which the 150-sample
+      // budget may leave unsplit beside the infeasible corner's splits) by up to 8.0e-3 rad.
+      const tol = angle === 90 ? 2e-3 : interpolationLag(Math.PI / 4) + 2e-3;
       for (let c = 0; c < 3; ++c)
-        assert.ok(Math.abs(arrow.direction[c] - expected[c]) < 2e-3, `bend ${angle}: arrow ${arrow.direction} vs ${expected}`);
+        assert.ok(Math.abs(arrow.direction[c] - expected[c]) < tol, `bend ${angle}: arrow ${arrow.direction} vs ${expected} (tolerance ${tol})`);
     }
     await page.screenshot({ path: join(SHOTS, 'bracket-bend-130.png') });
   });
