@@ -273,8 +273,9 @@ bool ElementStage::measure_at(std::size_t e, int at, int crow, const std::vector
 
 // The element's error model (format/error_model.h), measured against rows the driver already
 // evaluated (no host call): per quantity, the error of the element's interpolant at its centre,
-// and per direction d the midpoint error along d (linear) or the larger interpolant error at
-// the two face centres along d (cubic). -1 where a face centre was never evaluated (the budget
+// and per direction d the midpoint error along d (linear, and a cubic element on its corner
+// fallback, whose interpolant is multilinear) or the larger interpolant error at the two face
+// centres along d (cubic). -1 where a face centre was never evaluated (the budget
 // stopped the driver first, or reuse_face_centres skipped it) or cannot be mapped. The element's
 // error_estimate is the model's largest geometry estimate.
 void ElementStage::measure_error_model(std::size_t e, int leaf, int crow, format::ElementData& ed) {
@@ -295,6 +296,7 @@ void ElementStage::measure_error_model(std::size_t e, int leaf, int crow, format
   const std::size_t Q = 1 + problem_.sample(crow).fields.size(),
                     W = static_cast<std::size_t>(K_ + 1);
   ed.error_model.assign(Q * W, -1.0);
+  const bool cubic = cb_.element_cubic(static_cast<int>(e));
   std::vector<double> q;
   if (!measure_at(e, crow, crow, real(c), q)) return;
   for (std::size_t i = 0; i < Q; ++i) ed.error_model[i * W] = q[i];
@@ -309,13 +311,13 @@ void ElementStage::measure_error_model(std::size_t e, int leaf, int crow, format
     }
     std::vector<double> worst(Q, -1.0);
     bool known = true;
-    if (!cubic_) {
+    if (!cubic) {
       const double psi[2] = {0.5, 0.5};
       known = face[0] >= 0 && face[1] >= 0 &&
               problem_.quantity_errors(crow, crow, face, psi, 2, opt_.geometry_tolerance, q);
       if (known) worst = q;
     }
-    for (int side = 0; cubic_ && known && side < 2; ++side) {
+    for (int side = 0; cubic && known && side < 2; ++side) {
       known = face[side] >= 0 && measure_at(e, face[side], crow, fx[side], q);
       for (std::size_t i = 0; known && i < Q; ++i) worst[i] = std::max(worst[i], q[i]);
     }

@@ -215,6 +215,52 @@ TEST(ErrorEstimates, GeometryFloorAddsToTheGeometryOnly) {
   }
 }
 
+// A cubic build that stops at its start grid next to a failed corner: every cubic term reaches
+// every sample there, so each element whose corners are feasible is on its corner fallback and
+// interpolates exactly as the linear build does. Its error model is then measured and shaped as
+// a linear element's (SPEC.md "Error model"), so the two assets estimate alike at every point;
+// a constant cubic estimate over a multilinear interpolant overstated the press's geometry
+// error 3.4x at the median.
+TEST(ErrorEstimates, CornerFallbackElementsEstimateAsLinearOnes) {
+  const cadinterp_host* h = analytic("bracket", "cells=1,fail_region=1");
+  ASSERT_NE(h, nullptr);
+  const std::string lpath = build(h, "fallback_linear.cadi", 8, 1);
+  const std::string cpath = build(h, "fallback_cubic.cadi", 8, 3);
+  const AssetPtr linear = open(lpath), cubic = open(cpath);
+  ASSERT_TRUE(linear && cubic);
+  const int want = 1 + cadinterp_field_count(linear.get());
+  ASSERT_EQ(want, 1 + cadinterp_field_count(cubic.get()));
+  cadinterp_parameter_info p[4];
+  for (int d = 0; d < 4; ++d) ASSERT_EQ(cadinterp_parameter(linear.get(), d, &p[d]), CADINTERP_OK);
+  int compared = 0;
+  for (int i = 0; i < 200; ++i) {
+    double x[4];
+    for (int d = 0; d < 4; ++d)
+      x[d] = p[d].lower +
+             (p[d].upper - p[d].lower) * std::fmod(0.137 + 0.61803 * (i + 1) * (d + 1), 1.0);
+    int el = -1, ef = -1, ce = -1, cf = -1;
+    ASSERT_EQ(cadinterp_locate(linear.get(), x, &el, &ef), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_locate(cubic.get(), x, &ce, &cf), CADINTERP_OK);
+    EXPECT_EQ(ef, cf) << "at point " << i;
+    if (!ef || !cf) continue;
+    int terms = 0;
+    ASSERT_EQ(cadinterp_element_term_count(cubic.get(), ce, &terms), CADINTERP_OK);
+    EXPECT_EQ(terms, 16) << "a cubic element off its corner fallback at point " << i;
+    std::vector<double> le(static_cast<std::size_t>(want)), cest(le.size());
+    int count = 0;
+    ASSERT_EQ(cadinterp_error_estimates(linear.get(), x, le.data(), want, &count), CADINTERP_OK);
+    ASSERT_EQ(cadinterp_error_estimates(cubic.get(), x, cest.data(), want, &count), CADINTERP_OK);
+    for (int q = 0; q < want; ++q)
+      EXPECT_NEAR(cest[static_cast<std::size_t>(q)], le[static_cast<std::size_t>(q)],
+                  1e-9 * std::max(1.0, le[static_cast<std::size_t>(q)]))
+          << "quantity " << q << " at point " << i;
+    ++compared;
+  }
+  EXPECT_GT(compared, 100);
+  std::filesystem::remove(lpath);
+  std::filesystem::remove(cpath);
+}
+
 // Calibration against a host whose truth is a closed form: at 200 random points (other points
 // than the calibration's), the estimate bounds the true error (geometry: the Hausdorff distance
 // to the host's mesh at x; fields: against the host's closed-form values on its mesh at x, the

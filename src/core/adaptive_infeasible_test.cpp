@@ -214,6 +214,38 @@ TEST(AdaptiveInfeasible, CornerFallbackIsMultilinearOnItsCorners) {
   EXPECT_FALSE(linear.corner_fallback_basis(linear.tree().leaves().front(), &fb));
 }
 
+// The compiled basis tells the fallback elements from the others by their terms alone (what
+// the runtime's error estimate reads from an asset): exactly the elements whose own cubic terms
+// reach a failed sample and that are feasible, and none of a cubic build without failures or of
+// a linear one.
+TEST(AdaptiveInfeasible, CompiledBasisFindsTheCornerFallbackElements) {
+  const std::vector<double> lo{0, 0}, hi{1, 1};
+  AdaptiveOptions o = options(Degree::Cubic, 120);
+  const AdaptiveResult r = adaptive_sample(2, 1, lo, hi, kHost, o);
+  const CompiledBasis cb = CompiledBasis::compile(r.basis, lo, hi, &r.infeasible);
+  int fallback = 0;
+  for (int e = 0; e < cb.element_count(); ++e) {
+    const ElementBasis own =
+        r.basis.element_basis(r.basis.tree().leaves()[static_cast<std::size_t>(e)]);
+    const bool own_reach_failure = std::any_of(own.terms.begin(), own.terms.end(), [&](int k) {
+      return static_cast<bool>(r.infeasible[static_cast<std::size_t>(k)]);
+    });
+    EXPECT_EQ(cb.element_on_corner_fallback(e), cb.element_feasible(e) && own_reach_failure)
+        << "element " << e;
+    fallback += cb.element_on_corner_fallback(e) ? 1 : 0;
+  }
+  EXPECT_GT(fallback, 0);
+  const HostFunction smooth = [](const double* x, double* v) {
+    v[0] = host_value(x);
+    return true;
+  };
+  for (Degree g : {Degree::Cubic, Degree::Linear}) {
+    const AdaptiveResult s = adaptive_sample(2, 1, lo, hi, smooth, options(g, 120));
+    const CompiledBasis c = CompiledBasis::compile(s.basis, lo, hi, &s.infeasible);
+    for (int e = 0; e < c.element_count(); ++e) EXPECT_FALSE(c.element_on_corner_fallback(e));
+  }
+}
+
 TEST(AdaptiveInfeasible, CubicCornerFallbackKeepsTheFeasibleSpaceAccurately) {
   // A cubic element refused for a failed sample two widths away keeps its corners' multilinear
   // interpolant instead, tested against the tolerance like any element.

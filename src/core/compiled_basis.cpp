@@ -326,6 +326,22 @@ const int* CompiledBasis::element_samples(int e, int* count) const {
   return p_.term_sample.data() + begin;
 }
 
+bool CompiledBasis::element_on_corner_fallback(int e) const {
+  const int K = p_.K;
+  int n = 0;
+  const int* terms = element_samples(e, &n);
+  if (p_.degree != Degree::Cubic || n != (1 << K)) return false;
+  // Unit coordinates of samples and boxes both come from to_unit of the same dyadic grid, so
+  // a corner compares equal exactly.
+  const double* box = p_.elem_box.data() + static_cast<std::ptrdiff_t>(e) * 2 * K;
+  for (int t = 0; t < n; ++t)
+    for (int d = 0; d < K; ++d) {
+      const double u = p_.sample_unit[static_cast<std::size_t>(terms[t] * K + d)];
+      if (u != box[d] && u != box[K + d]) return false;
+    }
+  return true;
+}
+
 int CompiledBasis::locate(const double* x) const {
   double u[kMaxDim];
   for (int d = 0; d < p_.K; ++d) {

@@ -55,6 +55,18 @@ class CompiledBasis {
   /// Samples with psi != 0 on element e.
   const int* element_samples(int e, int* count) const;
   bool element_feasible(int e) const { return p_.elem_feasible[static_cast<std::size_t>(e)] != 0; }
+  /// Whether element e of a cubic basis interpolates on its corner fallback
+  /// (Basis::corner_fallback_basis): its terms are exactly the 2^K samples at its box's corners,
+  /// so psi is multilinear on it. A cubic element's own B-splines always reach a sample beyond
+  /// its corners, so the terms tell the two apart without a flag in the asset. False for a
+  /// linear basis.
+  bool element_on_corner_fallback(int e) const;
+  /// Whether element e interpolates with cubic B-splines: a cubic basis's element that is not
+  /// on its corner fallback. What the error model's shape and factor follow
+  /// (format/error_model.h).
+  bool element_cubic(int e) const {
+    return p_.degree == Degree::Cubic && !element_on_corner_fallback(e);
+  }
   int max_terms() const { return max_terms_; }
   int max_bsplines() const { return max_bsplines_; }
 

@@ -35,8 +35,10 @@ inline constexpr double kGeometryFloor = 0x1p-23;
 /// opposite signs, E near 0) still errs by along the edges. Zero at the element's corners, where
 /// the interpolant takes the samples' values. Cubic bases: the largest error measured at the
 /// centre and the face centres, constant over the element (a cubic B-spline interpolant is not
-/// exact at an element's corners, and its error has no simple per-direction shape). Negative
-/// when the centre error is unknown.
+/// exact at an element's corners, and its error has no simple per-direction shape). `cubic`
+/// is false for a cubic basis's element on its corner fallback
+/// (core::CompiledBasis::element_cubic is false): its interpolant is multilinear and the
+/// builder measures its row as a linear element's. Negative when the centre error is unknown.
 double error_model_estimate(const double* row, int K, bool cubic, const double* t);
 
 /// The largest value of error_model_estimate over the element: the largest of E and the e_d

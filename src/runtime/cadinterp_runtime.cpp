@@ -291,7 +291,9 @@ void estimates_at(const cadinterp_asset* a, int e, const double* x, double* out,
   double lo[cadinterp::core::kMaxDim], hi[cadinterp::core::kMaxDim], t[cadinterp::core::kMaxDim];
   basis.element_box(e, lo, hi);
   for (int d = 0; d < K; ++d) t[d] = (x[d] - lo[d]) / (hi[d] - lo[d]);
-  const bool cubic = basis.degree() == cadinterp::core::Degree::Cubic;
+  // A cubic asset's corner-fallback element interpolates its corners multilinearly, and the
+  // builder measured its model as a linear element's: it takes the linear shape and factor.
+  const bool cubic = basis.element_cubic(e);
   for (int q = 0; q < count; ++q)
     out[q] = cadinterp::format::error_model_reported(
         cadinterp::format::error_model_estimate(

@@ -126,7 +126,7 @@ void tally_elements(const format::AssetReader& reader, AssetSummary& s) {
     s.tris.add(static_cast<double>(F));
     // The largest estimate cadinterp_error_estimates gives in the element, per quantity (format
     // 1.3: the error model, scaled as the runtime scales it); before, the stored geometry one.
-    const bool cubic = basis.degree() == cadinterp::core::Degree::Cubic;
+    const bool cubic = basis.element_cubic(e);
     const auto* model = em->error_model();
     const std::size_t W = static_cast<std::size_t>(K) + 1;
     if (model && model->size() == W * (1 + s.field_err.size())) {
