@@ -283,7 +283,7 @@ TEST(AdaptiveInfeasible, FailureInTwoOfFourParametersIsApproached) {
   };
   const std::vector<double> lo(4, 0.0), hi(4, 1.0);
   for (Degree g : {Degree::Linear, Degree::Cubic}) {
-    AdaptiveOptions o = options(g, 2000);
+    AdaptiveOptions o = options(g, 1200);
     const AdaptiveResult r = adaptive_sample(4, 1, lo, hi, f4, o);
     const Fractions f = random_fractions(r, 4, fails, 20000, 1);
     std::printf("%s, 4-D, %d samples: refused %.3f, failing %.3f\n",
