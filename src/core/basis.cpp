@@ -94,10 +94,13 @@ void Basis::index_bspline(int b, bool add) {
   tree_.leaves_overlapping(bsplines_[static_cast<std::size_t>(b)].support, leaves);
   for (int leaf : leaves) {
     auto& list = leaf_bsplines_[static_cast<std::size_t>(leaf)];
+    // Each list is in ascending id order: a new B-spline takes the largest id yet and goes to
+    // the back, and a split's children filter their parent's list in order (refine.cpp). So
+    // the removal finds b by binary search; a linear search took 18 % of a deep cubic build.
     if (add)
       list.push_back(b);
     else
-      list.erase(std::find(list.begin(), list.end(), b));
+      list.erase(std::lower_bound(list.begin(), list.end(), b));
   }
 }
 

@@ -138,7 +138,8 @@ class Basis {
   std::vector<IPoint> samples_;
   std::unordered_map<IPoint, int, IPointHash> sample_id_;
   std::vector<std::vector<int>> leaf_samples_;   // node id -> B(e) (leaves only)
-  std::vector<std::vector<int>> leaf_bsplines_;  // node id -> live B-splines overlapping it
+  // node id -> live B-splines overlapping it, in ascending id order (index_bspline)
+  std::vector<std::vector<int>> leaf_bsplines_;
   std::vector<Bspline> bsplines_;
   std::unordered_map<BsplineKey, int, BsplineKeyHash> bspline_id_;
   int live_bsplines_ = 0;
