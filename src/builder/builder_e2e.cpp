@@ -168,11 +168,15 @@ class AccuracyRun {
         CADINTERP_OK)
       return;
     estimates_.resize(1 + fields_.size());
+    AccuracyReport::PointRecord rec{x, {est[0]}, {geo_.back()}};
     if (est[0] >= 0) estimates_[0].push_back({est[0], geo_.back()});
     for (std::size_t k = 0; k < fields_.size(); ++k) {
       const double e = est[1 + static_cast<std::size_t>(fields_[k])];
       if (e >= 0) estimates_[1 + k].push_back({e, point_field_[k]});
+      rec.estimate.push_back(e < 0 ? -1.0 : e);
+      rec.error.push_back(point_field_[k]);
     }
+    r_.per_point.push_back(std::move(rec));
   }
 
   // estimate_* of the report from the (estimate, true error) pairs of each quantity.

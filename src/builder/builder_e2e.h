@@ -46,6 +46,13 @@ struct AccuracyReport {
   /// The 10th percentile of estimate / true error (same points as the median): the safety
   /// factor 1 / p10 makes the estimate bound the error at 90 % of these points.
   std::vector<double> estimate_p10_ratio;
+  /// Every compared point with an estimate, in the order measured: x, then per quantity
+  /// (geometry, then the compared fields in field_names order) the estimate and the true error,
+  /// the pairs the calibration above is made of (estimate -1 where the asset has none).
+  struct PointRecord {
+    std::vector<double> x, estimate, error;
+  };
+  std::vector<PointRecord> per_point;
 };
 
 /// Outcome of one build through the C ABI (create, run, report, destroy).

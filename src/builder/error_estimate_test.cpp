@@ -287,6 +287,37 @@ TEST(ErrorEstimates, BoundTheTrueErrorAtMostPoints) {
       EXPECT_LE(r.estimate_median_ratio[q], 3.0) << name;
     }
   }
+  // The per-point records are the pairs those figures are made of: one per compared point, the
+  // estimate the ABI gives at that x, and together the same counts and coverage.
+  ASSERT_EQ(r.per_point.size(), 200u);
+  const AssetPtr a = open(path);
+  std::vector<int> slot{0};  // quantity q's place in cadinterp_error_estimates' output
+  for (const std::string& name : r.field_names)
+    for (int i = 0; i < cadinterp_field_count(a.get()); ++i) {
+      cadinterp_field_info info{};
+      ASSERT_EQ(cadinterp_field(a.get(), i, &info), CADINTERP_OK);
+      if (name == info.name) slot.push_back(1 + i);
+    }
+  ASSERT_EQ(slot.size(), r.estimate_points.size());
+  std::vector<int> n(slot.size(), 0), covered(slot.size(), 0);
+  for (const auto& p : r.per_point) {
+    ASSERT_EQ(p.x.size(), 3u);
+    ASSERT_EQ(p.estimate.size(), n.size());
+    ASSERT_EQ(p.error.size(), n.size());
+    std::vector<double> est(8);
+    int count = 0;
+    ASSERT_EQ(cadinterp_error_estimates(a.get(), p.x.data(), est.data(), 8, &count), CADINTERP_OK);
+    for (std::size_t q = 0; q < n.size(); ++q) {
+      EXPECT_EQ(p.estimate[q], est[static_cast<std::size_t>(slot[q])]);
+      if (p.estimate[q] < 0) continue;
+      ++n[q];
+      covered[q] += p.estimate[q] >= p.error[q] ? 1 : 0;
+    }
+  }
+  for (std::size_t q = 0; q < n.size(); ++q) {
+    EXPECT_EQ(n[q], r.estimate_points[q]);
+    EXPECT_DOUBLE_EQ(static_cast<double>(covered[q]) / n[q], r.estimate_coverage[q]);
+  }
   std::filesystem::remove(path);
 }
 

@@ -3,7 +3,8 @@
 // mapper, src/mapping, where samples differ in combinatorics; elements it cannot map are
 // refused and their points infeasible), then compares the asset with true regenerations at
 // random points, and the interpolated meshes' volume (and the interpolated brep_volume output)
-// with BRepGProp's.
+// with BRepGProp's. The calibration's per-point pairs (estimate, true error) go to
+// DIR/occt_results_MODEL[_cubic]_points.tsv.
 //
 //   cadinterp-occt-results [--full] [--models wrench,hub,...] [--points N] [--max-samples N]
 //                          [--max-depth N] [--threads N] [--seed S] [--dir DIR] [--degree 1|3]
@@ -237,6 +238,29 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   return b;
 }
 
+// The pairs the Estimate table is made of, one line per point (tab-separated, with a header):
+// x by parameter name, then per quantity its estimate and its true error.
+void write_points(const std::string& path, const cadinterp_host* host,
+                  const cadinterp::builder::AccuracyReport& acc) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) {
+    std::fprintf(stderr, "cannot write %s\n", path.c_str());
+    return;
+  }
+  for (int d = 0; d < host->parameter_count; ++d) std::fprintf(f, "%s\t", host->parameters[d].name);
+  for (std::size_t q = 0; q <= acc.field_names.size(); ++q) {
+    const char* n = q ? acc.field_names[q - 1].c_str() : "geometry";
+    std::fprintf(f, "%s_estimate\t%s_error%s", n, n, q < acc.field_names.size() ? "\t" : "\n");
+  }
+  for (const auto& p : acc.per_point) {
+    for (double v : p.x) std::fprintf(f, "%.17g\t", v);
+    for (std::size_t q = 0; q < p.error.size(); ++q)
+      std::fprintf(f, "%.6g\t%.6g%s", p.estimate[q], p.error[q],
+                   q + 1 < p.error.size() ? "\t" : "\n");
+  }
+  std::fclose(f);
+}
+
 // Volume of the interpolated mesh against BRepGProp's exact volume, and mean mesh size, at up to
 // 20 random points.
 void measure_volume(const std::string& path, const cadinterp_host* host,
@@ -309,6 +333,7 @@ bool measure_model(const std::string& name, const Args& a, std::vector<Row>& row
     row.acc = cadinterp::builder::measure_accuracy(path, truth, a.points, a.seed, nullptr, true,
                                                    host->simulate != nullptr);
     row.accuracy = true;
+    write_points(path.substr(0, path.size() - 5) + "_points.tsv", host, row.acc);
   } catch (const std::exception& ex) {
     row.note = std::string("accuracy: ") + ex.what();
   }
