@@ -173,7 +173,7 @@ class AccuracyRun {
     for (std::size_t k = 0; k < fields_.size(); ++k) {
       const double e = est[1 + static_cast<std::size_t>(fields_[k])];
       if (e >= 0) estimates_[1 + k].push_back({e, point_field_[k]});
-      rec.estimate.push_back(e < 0 ? -1.0 : e);
+      rec.estimate.push_back(e);
       rec.error.push_back(point_field_[k]);
     }
     r_.per_point.push_back(std::move(rec));

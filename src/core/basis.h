@@ -137,7 +137,7 @@ class Basis {
   KdTree tree_;
   std::vector<IPoint> samples_;
   std::unordered_map<IPoint, int, IPointHash> sample_id_;
-  std::vector<std::vector<int>> leaf_samples_;   // node id -> B(e) (leaves only)
+  std::vector<std::vector<int>> leaf_samples_;  // node id -> B(e) (leaves only)
   // node id -> live B-splines overlapping it, in ascending id order (index_bspline)
   std::vector<std::vector<int>> leaf_bsplines_;
   std::vector<Bspline> bsplines_;
