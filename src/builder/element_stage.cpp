@@ -40,6 +40,7 @@ std::vector<float> to_float(const std::vector<double>& v) {
 struct ElementTally {
   format::ElementData ed;
   bool ok = false, samples_feasible = false;
+  bool mapped = false;  // a term is stored other than as its sample's own mesh
   int stored_meshes = 0;
   bool refined = false;
   std::size_t refined_vertices = 0;
@@ -110,6 +111,7 @@ class ElementStage {
       build_element(e, tallies[e]);
       ++elements_done_;
     });
+    set_field_floors(tallies);
     const Sample* field_source = nullptr;
     for (std::size_t e = 0; e < tallies.size(); ++e) merge(e, tallies[e], field_source);
     return field_source;
@@ -120,6 +122,7 @@ class ElementStage {
   void poll();
   void build_element(std::size_t e, ElementTally& tally);
   void merge(std::size_t e, ElementTally& tally, const Sample*& field_source);
+  void set_field_floors(std::vector<ElementTally>& tallies) const;
   bool map_term(std::size_t e, int leaf, int crow, int k, std::unique_ptr<MappedSample>& bridged,
                 ElementTally& tally);
   void refuse_term(std::size_t e, int row, int crow, ElementTally& tally);
@@ -217,6 +220,9 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
                                                        : bridged[static_cast<std::size_t>(t)].get();
   write_element(ed, canon, crow, terms, n, carried);
   tally.stored_meshes = n;
+  for (int t = 0; t < n; ++t)
+    tally.mapped = tally.mapped || carried[static_cast<std::size_t>(t)] ||
+                   !problem_.same_class(run_.sample_row[static_cast<std::size_t>(terms[t])], crow);
   measure_error_model(e, leaf, crow, ed);
   if (!ed.error_model.empty()) {
     ed.geometry_floor = geometry_floor(leaf, crow, terms, n, carried, ed);
@@ -249,6 +255,50 @@ double ElementStage::geometry_floor(int leaf, int crow, const int* terms, int n,
                             own.bbox_diagonal());
   }
   return floor;
+}
+
+// The fields' floors (format 1.3 ElementMeshes.field_floors): the part of a field's error that
+// two meshes of one solid add, which the linear shape puts at 0 next to the samples. A term
+// mapped from its own mesh (§6) carries its field as that mesh's discretization gave it, and the
+// host's answer at a nearby x is another mesh's discretization: the two differ by as much next
+// to a sample as between samples (the main job's von Mises: 0.17 of its range near the samples,
+// 0.20 mid-element; docs/error-estimates.md). That difference is in every error the builder
+// measures on such an element, so each element's smallest measured error (the centre's or a
+// direction's) bounds it from above there; an element with large curvature bounds it loosely.
+// The floor is the lower quartile of those smallest errors over the asset's linear elements with
+// mapped terms, per field, and is given to each of them: the discretization difference is the
+// host's, not an element's. Elements whose terms are all their samples' own meshes, and cubic
+// elements, whose constant estimate is the largest error measured and already holds it, get
+// none.
+void ElementStage::set_field_floors(std::vector<ElementTally>& tallies) const {
+  const std::size_t W = static_cast<std::size_t>(K_ + 1);
+  auto floored = [&](std::size_t e) {
+    const ElementTally& t = tallies[e];
+    return t.ok && t.mapped && !t.ed.error_model.empty() && !cb_.element_cubic(static_cast<int>(e));
+  };
+  std::size_t fields = 0;
+  for (std::size_t e = 0; e < tallies.size(); ++e)
+    if (floored(e)) fields = tallies[e].ed.error_model.size() / W - 1;
+  std::vector<double> floors(fields, 0.0);
+  for (std::size_t f = 0; f < fields; ++f) {
+    std::vector<double> smallest;
+    for (std::size_t e = 0; e < tallies.size(); ++e) {
+      if (!floored(e)) continue;
+      const double* row = tallies[e].ed.error_model.data() + (1 + f) * W;
+      if (!(row[0] >= 0)) continue;
+      double m = row[0];
+      for (std::size_t d = 1; d < W; ++d)
+        if (row[d] >= 0) m = std::min(m, row[d]);
+      smallest.push_back(m);
+    }
+    if (smallest.empty()) continue;
+    const auto q = smallest.begin() + static_cast<std::ptrdiff_t>((smallest.size() - 1) / 4);
+    std::nth_element(smallest.begin(), q, smallest.end());
+    floors[f] = *q;
+  }
+  if (std::none_of(floors.begin(), floors.end(), [](double v) { return v > 0; })) return;
+  for (std::size_t e = 0; e < tallies.size(); ++e)
+    if (floored(e)) tallies[e].ed.field_floors = floors;
 }
 
 // The row whose x is exactly `x` (computed as the driver computes grid points) if the host

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -15,6 +16,8 @@
 #include "builder/builder_e2e.h"
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
+#include "cadinterp_generated.h"
+#include "format/asset_reader.h"
 #include "format/asset_writer.h"
 #include "format/synthetic_asset.h"
 
@@ -184,35 +187,140 @@ TEST(ErrorEstimates, AssetsWithoutAModelOpenAndReportUnknown) {
   EXPECT_EQ(e, syn.content.elements[static_cast<std::size_t>(element)].error_estimate);
 }
 
-// The geometry floor (format 1.3 ElementMeshes.geometry_floor), the geometry's error at the
-// element's own samples, adds to the geometry's estimate everywhere in the element, also at
-// its corners where the shape is 0, and to no field's.
-TEST(ErrorEstimates, GeometryFloorAddsToTheGeometryOnly) {
+// A K = 2 synthetic asset with fields whose feasible elements all have the same error model
+// row, 0.01, for every quantity.
+format::SyntheticAsset modelled_synthetic() {
   format::SyntheticSpec s;
   s.K = 2;
   s.fields = true;
   format::SyntheticAsset syn = format::make_synthetic_asset(s);
   const std::size_t rows = 1 + syn.content.fields.size();
   for (format::ElementData& ed : syn.content.elements)
-    if (ed.vertex_count > 0) {
-      ed.error_model.assign(rows * 3, 0.01);  // the same row for every quantity
-      ed.geometry_floor = 0.25;
-    }
-  const std::vector<std::uint8_t> bytes = format::write_asset(syn.content, {});
+    if (ed.vertex_count > 0) ed.error_model.assign(rows * 3, 0.01);
+  return syn;
+}
+
+// cadinterp_error_estimates of the asset `c` writes (opened from a copy of its bytes) at three
+// points, one of them a corner of the box, where the linear shape is 0.
+std::vector<std::vector<double>> estimates_at_three_points(const format::AssetContent& c) {
+  const std::vector<std::uint8_t> bytes = format::write_asset(c, {});
   cadinterp_asset* raw = nullptr;
-  ASSERT_EQ(cadinterp_open_memory(bytes.data(), bytes.size(), 1, &raw), CADINTERP_OK);
+  EXPECT_EQ(cadinterp_open_memory(bytes.data(), bytes.size(), 1, &raw), CADINTERP_OK);
   const AssetPtr a(raw);
-  std::vector<double> out(rows);
-  int count = 0;
+  std::vector<std::vector<double>> out;
   for (const auto& x : std::vector<std::vector<double>>{{0.3, 0.6}, {0.0, 0.0}, {0.71, 0.12}}) {
-    ASSERT_EQ(
-        cadinterp_error_estimates(a.get(), x.data(), out.data(), static_cast<int>(rows), &count),
-        CADINTERP_OK);
-    for (std::size_t f = 1; f < rows; ++f) {
+    out.emplace_back(1 + c.fields.size(), -5.0);
+    int count = 0;
+    EXPECT_EQ(cadinterp_error_estimates(a.get(), x.data(), out.back().data(),
+                                        static_cast<int>(out.back().size()), &count),
+              CADINTERP_OK);
+  }
+  return out;
+}
+
+// The geometry floor (format 1.3 ElementMeshes.geometry_floor), the geometry's error at the
+// element's own samples, adds to the geometry's estimate everywhere in the element, also at
+// its corners where the shape is 0, and to no field's.
+TEST(ErrorEstimates, GeometryFloorAddsToTheGeometryOnly) {
+  format::SyntheticAsset syn = modelled_synthetic();
+  for (format::ElementData& ed : syn.content.elements)
+    if (ed.vertex_count > 0) ed.geometry_floor = 0.25;
+  for (const std::vector<double>& out : estimates_at_three_points(syn.content)) {
+    ASSERT_GT(out.size(), 1u);
+    for (std::size_t f = 1; f < out.size(); ++f) {
       EXPECT_GE(out[f], 0);
-      EXPECT_NEAR(out[0], out[f] + 0.25, 1e-12) << "at " << x[0] << ", " << x[1];
+      EXPECT_NEAR(out[0], out[f] + 0.25, 1e-12) << "field " << f;
     }
   }
+}
+
+// The field floors (format 1.3 ElementMeshes.field_floors) add, unscaled, to their own field's
+// estimate everywhere in the element, also at its corners where the shape is 0, and to nothing
+// else; an element without them estimates as before.
+TEST(ErrorEstimates, FieldFloorsAddToTheirFieldOnly) {
+  format::SyntheticAsset syn = modelled_synthetic();
+  const std::vector<std::vector<double>> without = estimates_at_three_points(syn.content);
+  for (format::ElementData& ed : syn.content.elements)
+    if (ed.vertex_count > 0)
+      for (std::size_t f = 0; f < syn.content.fields.size(); ++f)
+        ed.field_floors.push_back(0.25 * static_cast<double>(f + 1));
+  const std::vector<std::vector<double>> with = estimates_at_three_points(syn.content);
+  for (std::size_t p = 0; p < with.size(); ++p) {
+    ASSERT_GT(with[p].size(), 1u);
+    EXPECT_EQ(with[p][0], without[p][0]) << "the geometry's estimate has its own floor";
+    for (std::size_t f = 1; f < with[p].size(); ++f) {
+      EXPECT_GE(without[p][f], 0);
+      EXPECT_NEAR(with[p][f], without[p][f] + 0.25 * static_cast<double>(f), 1e-12)
+          << "field " << f << " at point " << p;
+    }
+  }
+}
+
+// Per element with a model, (its smallest measured error of field f, its floor of field f), the
+// floor -1 where the file holds none; `cubic_floored` counts cubic elements with floors.
+struct FloorsOfField {
+  std::vector<std::pair<double, double>> elements;
+  int cubic_floored = 0;
+};
+FloorsOfField floors_of_field(const std::string& path, int f) {
+  FloorsOfField out;
+  const auto r = format::AssetReader::open_file(path);
+  const int K = r->basis().dim();
+  const auto* els = r->index().elements();
+  for (flatbuffers::uoffset_t e = 0; e < els->size(); ++e) {
+    const auto* m = els->Get(e);
+    if (!m->error_model()) continue;
+    const double* row = m->error_model()->data() + static_cast<std::size_t>((1 + f) * (K + 1));
+    double smallest = row[0];
+    for (int d = 1; d <= K; ++d)
+      if (row[d] >= 0) smallest = std::min(smallest, row[d]);
+    const double floor =
+        m->field_floors() ? m->field_floors()->Get(static_cast<flatbuffers::uoffset_t>(f)) : -1;
+    out.elements.emplace_back(smallest, floor);
+    if (floor >= 0 && r->basis().element_cubic(static_cast<int>(e))) ++out.cubic_floored;
+  }
+  return out;
+}
+
+// The builder's field floors (SPEC.md "Error model"): on the plate, whose samples are meshed
+// apart and mapped (§6), every linear element holds the same floor per field, the lower quartile
+// of the elements' smallest measured errors; on the bracket, whose samples share one mesh, and on
+// the plate's cubic elements, none.
+TEST(ErrorEstimates, FieldFloorsOnLinearElementsWithMappedTerms) {
+  const cadinterp_host* plate = analytic("plate", "edge=8");
+  const cadinterp_host* bracket = analytic("bracket", "cells=1");
+  ASSERT_TRUE(plate && bracket);
+  const std::string linear = build(plate, "floors_linear.cadi", 60, 1);
+  int floored_fields = 0;
+  for (int f = 0; f < 3; ++f) {
+    const FloorsOfField got = floors_of_field(linear, f);
+    std::vector<double> smallest;  // of the elements with floors
+    double floor = -1;
+    for (const auto& [m, v] : got.elements) {
+      if (v < 0) continue;
+      if (floor < 0) floor = v;
+      EXPECT_EQ(v, floor) << "field " << f << ": one floor for the asset";
+      smallest.push_back(m);
+    }
+    ASSERT_GE(2 * smallest.size(), got.elements.size()) << "most plate elements are mapped";
+    // The lower quartile: fewer than a quarter of them measured less, more than a quarter no
+    // more than the floor.
+    const auto n = static_cast<std::ptrdiff_t>(smallest.size());
+    const auto below =
+        std::count_if(smallest.begin(), smallest.end(), [&](double m) { return m < floor; });
+    const auto at_most =
+        std::count_if(smallest.begin(), smallest.end(), [&](double m) { return m <= floor; });
+    EXPECT_LT(4 * below, n) << "field " << f;
+    EXPECT_GT(4 * at_most, n) << "field " << f;
+    floored_fields += floor > 0;
+  }
+  EXPECT_GT(floored_fields, 0) << "the plate's mapped fields have floors";
+  const std::string unmapped = build(bracket, "floors_bracket.cadi", 40, 1);
+  for (const auto& [smallest, v] : floors_of_field(unmapped, 0).elements)
+    EXPECT_EQ(v, -1) << "a bracket element has floors (smallest error " << smallest << ")";
+  const std::string cubic = build(plate, "floors_cubic.cadi", 60, 3);
+  EXPECT_EQ(floors_of_field(cubic, 0).cubic_floored, 0);
+  for (const std::string& p : {linear, unmapped, cubic}) std::filesystem::remove(p);
 }
 
 // A cubic build that stops at its start grid next to a failed corner: every cubic term reaches

@@ -364,19 +364,25 @@ void check_ref(const fb::BlobRef* r, const char* what, std::uint64_t section,
   extents.push_back({r->offset(), r->size(), r->checksum(), static_cast<std::uint8_t>(r->codec())});
 }
 
-// Element e's error model (format 1.3; error_model.h): absent (and no geometry floor), or
-// `rows` (1 + #fields) by (K + 1) finite values and a finite geometry floor >= 0, in a file that
-// says 1.3 or more.
+// Element e's error model (format 1.3; error_model.h): absent (and no floors), or `rows`
+// (1 + #fields) by (K + 1) finite values, a finite geometry floor >= 0 and no field floors or
+// one finite value >= 0 per field, in a file that says 1.3 or more.
 void check_error_model(const fb::ElementMeshes* m, int e, int K, std::size_t rows,
                        std::uint16_t minor) {
   const auto* model = m->error_model();
   const std::string where = "element " + std::to_string(e) + ": ";
   if (!model) {
     if (m->geometry_floor() != 0) corrupt(where + "geometry floor without an error model");
+    if (m->field_floors()) corrupt(where + "field floors without an error model");
     return;
   }
   if (!std::isfinite(m->geometry_floor()) || !(m->geometry_floor() >= 0))
     corrupt(where + "geometry floor not finite and >= 0");
+  if (const auto* floors = m->field_floors()) {
+    if (floors->size() != rows - 1) corrupt(where + "field floors size");
+    for (double v : *floors)
+      if (!std::isfinite(v) || !(v >= 0)) corrupt(where + "field floor not finite and >= 0");
+  }
   if (minor < kMinorOutputs)
     corrupt(where + "error model in a file of format 1." + std::to_string(minor) +
             " (1.3 content)");
@@ -398,7 +404,7 @@ void check_element(const fb::ElementMeshes* m, int e, const core::CompiledBasis&
   if (!std::isfinite(m->error_estimate())) corrupt("non-finite error estimate");
   if (m->vertex_count() == 0) {
     if (basis.element_feasible(e)) corrupt("feasible element without meshes");
-    if (m->error_model() || m->geometry_floor() != 0)
+    if (m->error_model() || m->geometry_floor() != 0 || m->field_floors())
       corrupt("element " + std::to_string(e) + ": error model without meshes");
     return;
   }
@@ -710,6 +716,12 @@ std::vector<DecodedArray<float>> AssetReader::decode_fields(int e, SpareArrays* 
     corrupt_blob(e, err);
   }
   return fields;
+}
+
+double element_error_floor(const fb::ElementMeshes& m, int q) {
+  if (q == 0) return m.geometry_floor();
+  const auto* floors = m.field_floors();
+  return floors ? floors->Get(static_cast<flatbuffers::uoffset_t>(q - 1)) : 0.0;
 }
 
 }  // namespace cadinterp::format

@@ -33,7 +33,8 @@
 
 namespace cadinterp::fb {
 struct Asset;
-}
+struct ElementMeshes;
+}  // namespace cadinterp::fb
 
 namespace cadinterp::format {
 
@@ -169,5 +170,12 @@ class AssetReader {
   mutable std::mutex topologies_mu_;
   mutable std::map<TopologyKey, std::weak_ptr<const Topology>> topologies_;
 };
+
+/// The floor cadinterp_error_estimates adds to quantity q's shaped estimate in element `m`
+/// (format 1.3, SPEC.md "Error model"): q 0 (geometry) its geometry_floor, q 1 + f its
+/// field_floors[f]; 0 where the file holds none. `m` must have passed the reader's checks (one
+/// field floor per field when present), and q must be below 1 + #fields. Thread-safe (reads
+/// only); no failure.
+double element_error_floor(const fb::ElementMeshes& m, int q);
 
 }  // namespace cadinterp::format

@@ -587,6 +587,47 @@ TEST(Asset, GeometryFloorRoundTripsAndBadOnesAreRefused) {
   EXPECT_THROW(write_asset(d, {}), FormatError) << "a floor without a model";
 }
 
+// The field floors (format 1.3, error_model.h): one per field, written with an error model and
+// read back; a floor that is negative, NaN or infinite, a count other than the fields', or
+// floors without a model are refused by the writer, and bad values edited into a file by the
+// reader.
+TEST(Asset, FieldFloorsRoundTripAndBadOnesAreRefused) {
+  AssetContent c = small_asset().content;
+  ASSERT_FALSE(c.fields.empty());
+  const std::size_t W = static_cast<std::size_t>(c.basis->dim() + 1) * (1 + c.fields.size());
+  for (ElementData& ed : c.elements)
+    if (ed.vertex_count > 0) {
+      ed.error_model.assign(W, 0.01);
+      for (std::size_t f = 0; f < c.fields.size(); ++f)
+        ed.field_floors.push_back(0.125 * static_cast<double>(f + 1));
+    }
+  std::vector<std::uint8_t> good = write_asset(c, {});
+  const auto r = AssetReader::open_memory(good.data(), good.size(), true);
+  const int e = feasible_elements(*r).at(0);
+  const auto* m = r->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
+  ASSERT_NE(m->field_floors(), nullptr);
+  ASSERT_EQ(m->field_floors()->size(), c.fields.size());
+  EXPECT_EQ(element_error_floor(*m, 0), 0.0) << "the geometry's floor is its own";
+  for (std::size_t f = 0; f < c.fields.size(); ++f)
+    EXPECT_EQ(element_error_floor(*m, static_cast<int>(f + 1)), 0.125 * static_cast<double>(f + 1));
+  for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    AssetContent d = c;
+    d.elements[static_cast<std::size_t>(e)].field_floors.back() = bad;
+    EXPECT_THROW(write_asset(d, {}), FormatError) << bad;
+    std::vector<std::uint8_t> b = good;
+    auto* floors = element_of(b, e)->mutable_field_floors();
+    floors->Mutate(floors->size() - 1, bad);
+    rehash(b);
+    EXPECT_EQ(open_status(b), Status::CorruptIndex) << bad;
+  }
+  AssetContent d = c;
+  d.elements[static_cast<std::size_t>(e)].field_floors.push_back(0.5);
+  EXPECT_THROW(write_asset(d, {}), FormatError) << "one floor more than fields";
+  d = c;
+  d.elements[static_cast<std::size_t>(e)].error_model.clear();
+  EXPECT_THROW(write_asset(d, {}), FormatError) << "floors without a model";
+}
+
 }  // namespace
 }  // namespace cadinterp::format
 

@@ -133,13 +133,19 @@ void check_element_arrays(const ElementData& ed, int e, int terms, const FieldSi
     if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
 }
 
-// Checks element e's error model: empty (and no geometry floor), or (1 + #fields) by (K + 1)
-// finite values and a finite geometry floor >= 0.
+// Checks element e's error model: empty (and no floors), or (1 + #fields) by (K + 1) finite
+// values, a finite geometry floor >= 0 and no field floors or one finite value >= 0 per field.
 void check_error_model(const AssetContent& c, const ElementData& ed, int e) {
   if (ed.error_model.empty()) {
-    if (ed.geometry_floor != 0) bad("element " + std::to_string(e) + ": floor without a model");
+    if (ed.geometry_floor != 0 || !ed.field_floors.empty())
+      bad("element " + std::to_string(e) + ": floor without a model");
     return;
   }
+  if (!ed.field_floors.empty() && ed.field_floors.size() != c.fields.size())
+    bad("element " + std::to_string(e) + ": field floors size");
+  for (double v : ed.field_floors)
+    if (!(v >= 0) || !std::isfinite(v))
+      bad("element " + std::to_string(e) + ": field floor not finite and >= 0");
   const std::size_t want = (1 + c.fields.size()) * static_cast<std::size_t>(c.basis->dim() + 1);
   if (ed.error_model.size() != want) bad("element " + std::to_string(e) + ": error model size");
   for (double v : ed.error_model)
@@ -196,6 +202,8 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
   const auto field_v = fbb.CreateVectorOfStructs(fields);
   flatbuffers::Offset<flatbuffers::Vector<double>> model_v;
   if (!ed.error_model.empty()) model_v = fbb.CreateVector(ed.error_model);
+  flatbuffers::Offset<flatbuffers::Vector<double>> floors_v;
+  if (!ed.field_floors.empty()) floors_v = fbb.CreateVector(ed.field_floors);
   fb::ElementMeshesBuilder eb(fbb);
   eb.add_vertex_count(vc);
   eb.add_tet_count(static_cast<std::uint32_t>(ntet));
@@ -209,6 +217,7 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
   eb.add_canonical_positions(&canonical);
   if (!ed.error_model.empty()) eb.add_error_model(model_v);
   eb.add_geometry_floor(ed.geometry_floor);  // the default, 0, is not written
+  if (!ed.field_floors.empty()) eb.add_field_floors(floors_v);
   return eb.Finish();
 }
 

@@ -56,6 +56,9 @@ struct ElementData {
   /// Format 1.3 (error_model.h): the geometry's error at the element's own samples, finite and
   /// >= 0; 0 when no stored mesh departs from its sample's own (not written).
   double geometry_floor = 0.0;
+  /// Format 1.3 (error_model.h): per field, the part of its error the model's shape does not
+  /// explain, finite and >= 0; empty (not written) when every floor is 0.
+  std::vector<double> field_floors;
 };
 
 /// A point where the builder's host failed.

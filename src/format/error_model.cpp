@@ -35,7 +35,7 @@ double error_model_reported(double est, bool cubic, bool geometry, double floor)
   if (!(est >= 0)) return -1.0;
   const double v = est * (cubic ? kErrorModelSafetyCubic : kErrorModelSafetyLinear);
   // Finite rows can still overflow here; the largest double says "no bound" and stays finite.
-  return std::min(geometry ? std::max(v + floor, kGeometryFloor) : v,
+  return std::min(geometry ? std::max(v + floor, kGeometryFloor) : v + floor,
                   std::numeric_limits<double>::max());
 }
 

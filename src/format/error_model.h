@@ -46,9 +46,10 @@ double error_model_estimate(const double* row, int K, bool cubic, const double* 
 double error_model_max(const double* row, int K);
 
 /// What cadinterp_error_estimates reports for an unscaled estimate `est` of a quantity: -1 when
-/// it is unknown (negative), else est times the degree's safety factor, plus for the geometry
-/// the element's geometry_floor (`floor`: its error at its own samples, where the shape is 0;
-/// measured, so not scaled) and no less than kGeometryFloor.
+/// it is unknown (negative), else est times the degree's safety factor plus the element's floor
+/// for the quantity (`floor`, measured, so not scaled: the geometry_floor, the geometry's error
+/// at the element's own samples, or the field's field_floors entry; SPEC.md "Error model"), the
+/// geometry's no less than kGeometryFloor.
 double error_model_reported(double est, bool cubic, bool geometry, double floor);
 
 }  // namespace cadinterp::format

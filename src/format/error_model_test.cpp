@@ -115,7 +115,8 @@ TEST(ErrorModel, LinearShapeBoundsSeparatedCurvaturesAndSaddles) {
 }
 
 // Unknown centre: unknown estimate; unmeasured directions take the centre error; no direction
-// error: the centre error spread evenly, zero at the corners.
+// error: the centre error spread evenly, zero at the corners. The reported value adds the
+// quantity's floor.
 TEST(ErrorModel, LinearRowsWithMissingOrZeroEntries) {
   const double t[2] = {0.5, 0.5}, corner[2] = {0, 1}, edge[2] = {0.5, 0};
   const double unknown[3] = {-1, 0.1, 0.1}, zero_dirs[3] = {0.2, 0, 0},
@@ -127,10 +128,15 @@ TEST(ErrorModel, LinearRowsWithMissingOrZeroEntries) {
   EXPECT_DOUBLE_EQ(error_model_estimate(zero_dirs, 2, false, edge), 0.1);
   EXPECT_DOUBLE_EQ(error_model_estimate(missing, 2, false, t), 0.2);
   EXPECT_DOUBLE_EQ(error_model_estimate(missing, 2, false, edge), 0.2);
-  EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, false, 0.5), 0.1 * kErrorModelSafetyLinear);
+  // Each quantity's floor adds unscaled; only the geometry's estimate has float storage's least.
+  EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, false, 0.5),
+                   0.1 * kErrorModelSafetyLinear + 0.5);
   EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, true, 0.5),
                    0.1 * kErrorModelSafetyLinear + 0.5);
+  EXPECT_DOUBLE_EQ(error_model_reported(0.1, true, false, 0.5), 0.1 * kErrorModelSafetyCubic + 0.5);
   EXPECT_DOUBLE_EQ(error_model_reported(0.0, false, true, 0.0), kGeometryFloor);
+  EXPECT_EQ(error_model_reported(0.0, false, false, 0.0), 0.0);
+  EXPECT_LT(error_model_reported(-1.0, false, false, 0.5), 0) << "unknown stays unknown";
   EXPECT_LT(error_model_reported(-1.0, false, true, 0.5), 0);
   const double huge = std::numeric_limits<double>::max();
   EXPECT_EQ(error_model_reported(huge, false, true, huge), huge) << "overflow stays finite";

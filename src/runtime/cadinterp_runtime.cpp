@@ -277,8 +277,8 @@ namespace {
 
 // The estimates of cadinterp_error_estimates at x (element e feasible) into out (1 + #fields
 // values): the element's error model shaped at x's place in the element (format/error_model.h),
-// times the calibrated safety factor, the geometry's plus its floor; -1 everywhere without a
-// model.
+// times the calibrated safety factor, plus the element's floor for the quantity; -1 everywhere
+// without a model.
 void estimates_at(const cadinterp_asset* a, int e, const double* x, double* out, int count) {
   const cadinterp::core::CompiledBasis& basis = a->reader->basis();
   const auto* m = a->reader->index().elements()->Get(static_cast<flatbuffers::uoffset_t>(e));
@@ -299,7 +299,7 @@ void estimates_at(const cadinterp_asset* a, int e, const double* x, double* out,
         cadinterp::format::error_model_estimate(
             model->data() + static_cast<std::size_t>(q) * static_cast<std::size_t>(K + 1), K, cubic,
             t),
-        cubic, q == 0, m->geometry_floor());
+        cubic, q == 0, cadinterp::format::element_error_floor(*m, q));
 }
 
 }  // namespace

@@ -132,7 +132,8 @@ void tally_elements(const format::AssetReader& reader, AssetSummary& s) {
     if (model && model->size() == W * (1 + s.field_err.size())) {
       for (std::size_t q = 0; q <= s.field_err.size(); ++q) {
         const double v = format::error_model_reported(
-            format::error_model_max(model->data() + q * W, K), cubic, q == 0, em->geometry_floor());
+            format::error_model_max(model->data() + q * W, K), cubic, q == 0,
+            format::element_error_floor(*em, static_cast<int>(q)));
         if (v >= 0) (q ? s.field_err[q - 1] : s.err).add(v);
       }
     } else if (em->error_estimate() >= 0) {
