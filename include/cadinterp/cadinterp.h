@@ -363,11 +363,13 @@ CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a
  * equal to the measured error at its centre and zero at the samples; on cubic assets the
  * largest measured error, constant over the element. The geometry's adds the element's error
  * at its own samples, where a mapped sample's stored mesh and the host's own mesh of it cut
- * the same surface with other triangles. Calibrated on held-out random points of analytic and
- * OpenCASCADE hosts to bound the true error at about 90 % of points (docs/error-estimates.md
- * gives the measured coverage and the median ratio to the true error per model). The fields'
- * do not include the float storage error (cadinterp_field's max_abs_error) or the difference
- * between two meshes' interpolations of one field (the truth's own discretization error).
+ * the same surface with other triangles. Each field's adds the element's floor for it where
+ * the element's samples were meshed apart and mapped: two meshes of one solid give a field
+ * values that differ as much next to a sample as between samples. Calibrated on held-out
+ * random points of analytic and OpenCASCADE hosts to bound the true error at about 90 % of
+ * points (docs/error-estimates.md gives the measured coverage and the median ratio to the true
+ * error per model, and where it falls short). The fields' do not include the float storage
+ * error (cadinterp_field's max_abs_error).
  * Assets without the builder's error model (written before format 1.3) report every entry as
  * -1 (unknown).
  * @param[in]  x         K parameter values
