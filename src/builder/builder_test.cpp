@@ -173,22 +173,27 @@ TEST(SampleStore, KeepsSamplesAndRefusesAnotherModel) {
     failed.message = "no";
     store.put({0.5, 0.5}, failed);
   }
-  builder::SampleStore store(path, "model A");
-  Sample got;
-  ASSERT_TRUE(store.get(x, got));
-  EXPECT_EQ(mesh::serialize(got), mesh::serialize(s));
-  ASSERT_TRUE(store.get({0.5, 0.5}, got));
-  EXPECT_FALSE(got.feasible);
-  EXPECT_EQ(got.message, "no");
-  EXPECT_EQ(store.size(), 2);
-  EXPECT_FALSE(store.get({0.25, std::nextafter(0.5, 1.0)}, got));  // bit-exact keys
-  try {
-    builder::SampleStore other(path, "model B");
-    ADD_FAILURE() << "a store of another model was accepted";
-  } catch (const builder::StoreError& e) {
-    EXPECT_EQ(e.kind, builder::StoreError::Kind::Mismatch);
+  {
+    builder::SampleStore store(path, "model A");
+    Sample got;
+    ASSERT_TRUE(store.get(x, got));
+    EXPECT_EQ(mesh::serialize(got), mesh::serialize(s));
+    ASSERT_TRUE(store.get({0.5, 0.5}, got));
+    EXPECT_FALSE(got.feasible);
+    EXPECT_EQ(got.message, "no");
+    EXPECT_EQ(store.size(), 2);
+    EXPECT_FALSE(store.get({0.25, std::nextafter(0.5, 1.0)}, got));  // bit-exact keys
+    try {
+      builder::SampleStore other(path, "model B");
+      ADD_FAILURE() << "a store of another model was accepted";
+    } catch (const builder::StoreError& e) {
+      EXPECT_EQ(e.kind, builder::StoreError::Kind::Mismatch);
+    }
   }
+  // Closed first, so that SQLite leaves no -wal or -shm file beside a removed database.
   std::filesystem::remove(path);
+  EXPECT_FALSE(std::filesystem::exists(path + "-wal"));
+  EXPECT_FALSE(std::filesystem::exists(path + "-shm"));
 }
 
 // ---- Whole builds ---------------------------------------------------------------------------
