@@ -33,6 +33,48 @@ struct WorkspaceDestroyer {
   void operator()(cadinterp_workspace* w) const { cadinterp_workspace_destroy(w); }
 };
 
+// The next random point of a measurement: uniform in the host's box, drawn from `rng` (so that
+// two measurements with one seed visit the same points).
+std::vector<double> random_point(std::mt19937& rng, const Host& host) {
+  std::vector<double> x(static_cast<std::size_t>(host.dim()));
+  for (std::size_t d = 0; d < x.size(); ++d)
+    x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
+  return x;
+}
+
+// A mesh's per-vertex values against `truth` where the meshes differ: each vertex v (at
+// position(v, p)) is located in truth's mesh (barycentric in the tet containing it, the nearest
+// for a vertex a geometry error outside), and for each compared field k (truth_fields[k], an
+// index into truth.fields, or -1 to skip) and component c, |value(k, v, c) - truth's value
+// there| / the truth field's range goes to note(k, v, error).
+template <class Position, class Value, class Note>
+void located_errors(const Sample& truth, std::uint32_t vertex_count,
+                    const std::vector<int>& truth_fields, Position position, Value value,
+                    Note note) {
+  const mapping::TetLocator locator(truth);
+  std::vector<double> range(truth_fields.size(), 1.0);
+  for (std::size_t k = 0; k < truth_fields.size(); ++k)
+    if (truth_fields[k] >= 0)
+      range[k] = value_range(truth.fields[static_cast<std::size_t>(truth_fields[k])].values);
+  for (std::uint32_t v = 0; v < vertex_count; ++v) {
+    double p[3], w[4];
+    position(v, p);
+    const int t = locator.locate(p, w);
+    if (t < 0) continue;
+    const std::uint32_t* tet = &truth.tets[4 * static_cast<std::size_t>(t)];
+    for (std::size_t k = 0; k < truth_fields.size(); ++k) {
+      if (truth_fields[k] < 0) continue;
+      const mesh::Field& tf = truth.fields[static_cast<std::size_t>(truth_fields[k])];
+      const auto C = static_cast<std::size_t>(tf.components);
+      for (std::size_t c = 0; c < C; ++c) {
+        double want = 0;
+        for (std::size_t j = 0; j < 4; ++j) want += w[j] * tf.values[tet[j] * C + c];
+        note(k, v, std::abs(value(k, v, c) - want) / range[k]);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
@@ -125,9 +167,10 @@ class AccuracyRun {
     }
   }
 
-  // One random point: the asset against the host's regeneration there.
+  // One random point: the asset against the host's regeneration there (`known`, when the
+  // caller has it already).
   void point(const std::vector<double>& x, const FieldTruthAt& field_truth, bool count_lost,
-             bool on_evaluated_mesh) {
+             bool on_evaluated_mesh, const Sample* known = nullptr) {
     ++r_.points;
     std::fill(point_field_.begin(), point_field_.end(), 0.0);
     cadinterp_mesh m;
@@ -142,7 +185,8 @@ class AccuracyRun {
     }
     if (st != CADINTERP_OK)
       throw std::runtime_error(std::string("eval failed: ") + cadinterp_workspace_error(ws_.get()));
-    const Sample truth = host_.evaluate(x.data());
+    Sample evaluated;
+    const Sample& truth = known ? *known : (evaluated = host_.evaluate(x.data()));
     if (!truth.feasible) return;  // the runtime interpolated across a point the host refuses
     const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
@@ -299,27 +343,21 @@ class AccuracyRun {
   // vertex is the host's field interpolated barycentrically in the host's tet that contains the
   // vertex (the nearest tet for boundary vertices a geometry error outside).
   void against_located_truth(const Sample& truth, const cadinterp_mesh& m) {
-    const mapping::TetLocator locator(truth);
+    std::vector<int> truth_fields(fields_.size(), -1);
+    for (std::size_t k = 0; k < fields_.size(); ++k)
+      if (static_cast<std::size_t>(fields_[k]) < truth.fields.size()) truth_fields[k] = fields_[k];
     double e = 0;
-    for (std::uint32_t v = 0; v < m.vertex_count; ++v) {
-      const double p[3] = {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
-      double w[4];
-      const int t = locator.locate(p, w);
-      if (t < 0) continue;
-      for (std::size_t k = 0; k < fields_.size(); ++k) {
-        const auto fi = static_cast<std::size_t>(fields_[k]);
-        if (fi >= truth.fields.size()) continue;
-        const mesh::Field& tf = truth.fields[fi];
-        const auto C = static_cast<std::size_t>(tf.components);
-        const double range = value_range(tf.values);
-        for (std::size_t c = 0; c < C; ++c) {
-          double want = 0;
-          for (std::size_t j = 0; j < 4; ++j)
-            want += w[j] * tf.values[truth.tets[4 * static_cast<std::size_t>(t) + j] * C + c];
-          note(k, std::abs(static_cast<double>(m.fields[k][v * C + c]) - want) / range, e);
-        }
-      }
-    }
+    located_errors(
+        truth, m.vertex_count, truth_fields,
+        [&](std::uint32_t v, double* p) {
+          for (std::size_t c = 0; c < 3; ++c) p[c] = m.positions[3 * v + c];
+        },
+        [&](std::size_t k, std::uint32_t v, std::size_t c) {
+          const auto C = static_cast<std::size_t>(
+              truth.fields[static_cast<std::size_t>(fields_[k])].components);
+          return static_cast<double>(m.fields[k][v * C + c]);
+        },
+        [&](std::size_t k, std::uint32_t, double err) { note(k, err, e); });
     finish_point(e);
   }
 
@@ -360,16 +398,80 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
                                 bool on_evaluated_mesh) {
   AccuracyRun run(asset_path, host);
   std::mt19937 rng(seed);
-  const int K = host.dim();
-  for (int i = 0; i < points; ++i) {
-    std::vector<double> x(static_cast<std::size_t>(K));
-    for (int d = 0; d < K; ++d)
-      x[static_cast<std::size_t>(d)] =
-          std::uniform_real_distribution<double>(host.lower()[static_cast<std::size_t>(d)],
-                                                 host.upper()[static_cast<std::size_t>(d)])(rng);
-    run.point(x, field_truth, count_lost, on_evaluated_mesh);
-  }
+  for (int i = 0; i < points; ++i)
+    run.point(random_point(rng, host), field_truth, count_lost, on_evaluated_mesh);
   return run.finish();
+}
+
+TruthDependenceReport measure_truth_dependence(const Host& table, const Host& reference, int points,
+                                               unsigned seed, const std::string& asset_path) {
+  if (table.dim() != reference.dim() || table.lower() != reference.lower() ||
+      table.upper() != reference.upper())
+    throw std::invalid_argument("measure_truth_dependence: the hosts' parameter boxes differ");
+  TruthDependenceReport r;
+  std::unique_ptr<AccuracyRun> asset;
+  if (!asset_path.empty()) asset = std::make_unique<AccuracyRun>(asset_path, reference);
+  std::vector<std::vector<double>> pooled;
+  std::mt19937 rng(seed);
+  for (int i = 0; i < points; ++i) {
+    const std::vector<double> x = random_point(rng, table);
+    ++r.points;
+    const Sample other = reference.evaluate(x.data());
+    if (asset) asset->point(x, nullptr, false, false, &other);
+    const Sample truth = table.evaluate(x.data());
+    if (!truth.feasible || !other.feasible) {
+      ++r.infeasible;
+      continue;
+    }
+    // The reference's per-vertex fields, matched with the table's by name, in the reference's
+    // order (the first point fixes it).
+    std::vector<int> truth_fields;
+    std::vector<std::size_t> compared;
+    for (std::size_t f = 0; f < other.fields.size(); ++f) {
+      if (other.fields[f].location != CADINTERP_PER_VERTEX) continue;
+      const auto it = std::find_if(truth.fields.begin(), truth.fields.end(), [&](const Field& t) {
+        return t.name == other.fields[f].name && t.location == CADINTERP_PER_VERTEX &&
+               t.components == other.fields[f].components;
+      });
+      if (it == truth.fields.end()) continue;
+      compared.push_back(f);
+      truth_fields.push_back(static_cast<int>(it - truth.fields.begin()));
+    }
+    if (r.field_names.empty()) {
+      for (std::size_t f : compared) r.field_names.push_back(other.fields[f].name);
+      r.max_by_field.assign(compared.size(), 0.0);
+      r.max_x.resize(compared.size());
+      r.max_at.resize(compared.size());
+      pooled.resize(compared.size());
+    }
+    if (compared.size() != r.field_names.size())
+      throw std::runtime_error("measure_truth_dependence: the hosts' fields change across x");
+    ++r.compared;
+    located_errors(
+        truth, static_cast<std::uint32_t>(other.vertex_count()), truth_fields,
+        [&](std::uint32_t v, double* p) {
+          for (std::size_t c = 0; c < 3; ++c) p[c] = other.vertices[3 * std::size_t(v) + c];
+        },
+        [&](std::size_t k, std::uint32_t v, std::size_t c) {
+          const Field& f = other.fields[compared[k]];
+          return f.values[v * static_cast<std::size_t>(f.components) + c];
+        },
+        [&](std::size_t k, std::uint32_t v, double err) {
+          if (err > r.max_by_field[k]) {
+            r.max_by_field[k] = err;
+            r.max_x[k] = x;
+            for (std::size_t c = 0; c < 3; ++c)
+              r.max_at[k][c] = other.vertices[3 * std::size_t(v) + c];
+          }
+          pooled[k].push_back(err);
+        });
+  }
+  for (auto& p : pooled) r.vertex_p99_by_field.push_back(percentile99(std::move(p)));
+  if (asset) {
+    r.asset = asset->finish();
+    r.has_asset = true;
+  }
+  return r;
 }
 
 }  // namespace cadinterp::builder

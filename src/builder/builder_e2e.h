@@ -3,6 +3,7 @@
 // host's own answer at random parameter points (the paper's Table 2, ours).
 #pragma once
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -100,5 +101,34 @@ using FieldTruthAt = std::function<bool(int field, const double* x, const double
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& truth = nullptr,
                                 bool count_lost = false, bool on_evaluated_mesh = false);
+
+/// The truth's own mesh dependence (Table 2's FEM columns take their truth from one mesh of x):
+/// at the `points` random x that measure_accuracy visits with `seed`, each per-vertex field of
+/// `reference` (another mesh of the same model: a finer one for the truth's discretization
+/// error, one a few per cent apart for its meshing noise) at each of its vertices, against
+/// `table`'s field at that position (barycentric in the table host's tet containing it), as
+/// measure_accuracy compares an asset with `table`: |difference| / the table field's range.
+/// It is the error Table 2 would report for an asset that reproduced `reference` exactly.
+/// With `asset_path`, also that asset against `reference` at the same points, as
+/// measure_accuracy measures it against its host (each reference evaluation serving both):
+/// Table 2 against a finer truth. Throws as measure_accuracy for the asset.
+/// Fields are matched by name, components and location. Not thread-safe beyond the hosts' own
+/// evaluate. Throws std::invalid_argument when the parameter boxes differ and
+/// std::runtime_error when the matched fields change between points.
+struct TruthDependenceReport {
+  int points = 0;                           ///< random points drawn
+  int infeasible = 0;                       ///< of which either host failed (not compared)
+  int compared = 0;                         ///< points compared
+  std::vector<std::string> field_names;     ///< the matched per-vertex fields, reference order
+  std::vector<double> max_by_field;         ///< max over every vertex value of every point
+  std::vector<double> vertex_p99_by_field;  ///< 99th percentile of those values, pooled
+  /// Where each field's max is: the point x and the reference's vertex position there.
+  std::vector<std::vector<double>> max_x;
+  std::vector<std::array<double, 3>> max_at;
+  bool has_asset = false;  ///< asset_path was given
+  AccuracyReport asset;    ///< the asset against `reference` (has_asset)
+};
+TruthDependenceReport measure_truth_dependence(const Host& table, const Host& reference, int points,
+                                               unsigned seed, const std::string& asset_path = {});
 
 }  // namespace cadinterp::builder

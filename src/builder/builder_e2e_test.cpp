@@ -444,6 +444,59 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
 
 // Without the mesh mapper (the identity hook), elements across resolutions cannot be built, and
 // the build says why by name.
+// The truth's own mesh term (cadinterp-occt-results --truth-against). A host against itself
+// differs by nothing. Against a finer mesh of the same model, the plate's temperature (the
+// closed form at the vertices, quadratic along the plate) differs by the coarser mesh's linear
+// interpolation error, which is second order: a quarter per halving of the edge.
+TEST(EndToEnd, TruthDependenceIsTheCoarserMeshsInterpolationError) {
+  const cadinterp_host* e8 = host("plate", "edge=8");
+  const cadinterp_host* e4 = host("plate", "edge=4");
+  const cadinterp_host* e1 = host("plate", "edge=1");
+  ASSERT_TRUE(e8 && e4 && e1);
+  const mesh::Host h8(*e8), h4(*e4), h1(*e1);
+  const builder::TruthDependenceReport self = builder::measure_truth_dependence(h8, h8, 4, 3);
+  EXPECT_EQ(self.points, 4);
+  EXPECT_EQ(self.compared, 4);
+  ASSERT_EQ(self.field_names, (std::vector<std::string>{"temperature", "displacement"}));
+  for (double m : self.max_by_field) EXPECT_LT(m, 1e-12);
+  const builder::TruthDependenceReport coarse = builder::measure_truth_dependence(h8, h1, 4, 3);
+  const builder::TruthDependenceReport fine = builder::measure_truth_dependence(h4, h1, 4, 3);
+  ASSERT_EQ(coarse.compared, 4);
+  ASSERT_EQ(fine.compared, 4);
+  std::printf(
+      "[ figures ] plate temperature against edge=1: edge=8 %.3e, edge=4 %.3e (99 %% %.3e, %.3e)\n",
+      coarse.max_by_field[0], fine.max_by_field[0], coarse.vertex_p99_by_field[0],
+      fine.vertex_p99_by_field[0]);
+  EXPECT_GT(fine.max_by_field[0], 1e-4);
+  const double order = std::log2(coarse.max_by_field[0] / fine.max_by_field[0]);
+  EXPECT_GT(order, 1.7);
+  EXPECT_LT(order, 2.3);
+  // With an asset: the asset against the reference at the same points, as measure_accuracy
+  // measures it against that host.
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 30;
+  o.threads = 2;
+  const std::string path = temp_path("truth_dependence.cadi");
+  ASSERT_EQ(build(e8, o, path).status, CADINTERP_OK);
+  const builder::TruthDependenceReport with = builder::measure_truth_dependence(h8, h4, 5, 9, path);
+  const builder::AccuracyReport direct = builder::measure_accuracy(path, h4, 5, 9);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(with.has_asset);
+  EXPECT_FALSE(self.has_asset);
+  EXPECT_EQ(with.asset.points, 5);
+  EXPECT_EQ(with.asset.field_points, direct.field_points);
+  EXPECT_EQ(with.asset.field_max_by_field, direct.field_max_by_field);
+  EXPECT_EQ(with.asset.field_vertex_p99_by_field, direct.field_vertex_p99_by_field);
+  EXPECT_EQ(with.asset.geometry_max, direct.geometry_max);
+  EXPECT_GT(with.asset.field_max, 0.0);
+  // Other boxes are refused by name.
+  const cadinterp_host* other = host("bracket", "cells=2");
+  ASSERT_NE(other, nullptr);
+  EXPECT_THROW(builder::measure_truth_dependence(h8, mesh::Host(*other), 1, 3),
+               std::invalid_argument);
+}
+
 TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
   const cadinterp_host* fine = host("plate", "edge=8");
   ASSERT_NE(fine, nullptr);

@@ -8,6 +8,7 @@
 //
 //   cadinterp-occt-results [--full] [--models wrench,hub,...] [--points N] [--max-samples N]
 //                          [--max-depth N] [--threads N] [--seed S] [--dir DIR] [--degree 1|3]
+//                          [--truth-against K=V,...] [--truth-only]
 //
 // Without --full the meshes are small (a few thousand tets) so that the whole run takes minutes;
 // --full uses the models' default mesh sizes.
@@ -89,13 +90,18 @@ int usage() {
                "                              [--max-samples N] [--max-depth N] [--threads N]\n"
                "                              [--seed S] [--dir DIR] [--host-options K=V,...]\n"
                "                              [--simulate-mapped] [--canonical-refinement N]\n"
-               "                              [--degree 1|3]\n"
+               "                              [--degree 1|3] [--truth-against K=V,...]\n"
+               "                              [--truth-only]\n"
                "       cadinterp-occt-results --beam\n"
                "  --host-options    appended to every model's options (e.g. order=2)\n"
                "  --simulate-mapped the builder simulates each mapped term on its mapped mesh\n"
                "                    instead of carrying the sample's fields over\n"
                "  --canonical-refinement N  rounds of canonical refinement (default 3, 0: none)\n"
                "  --degree 1|3      the assets' basis: 1 linear (default), 3 cubic\n"
+               "  --truth-against S also compares, at the same random points, the truth with\n"
+               "                    a second host of each model with S appended to its\n"
+               "                    options (e.g. mesh_size=4): the truth's own mesh term\n"
+               "  --truth-only      with --truth-against: only that comparison, no build\n"
                "  --beam            only the FEM against beam theory (wrench handle, press spine)\n"
                "                    by element order and mesh size\n");
   return 2;
@@ -113,6 +119,8 @@ struct Args {
   int canonical_refinement = -1;
   int degree = 1;
   bool beam = false;
+  std::string truth_against;  // --truth-against: the reference host's extra options
+  bool truth_only = false;    // --truth-only: no build, only the truth against the reference
 };
 
 // Parses the command line into `a`: 0, or the exit status of a usage error (the usage printed).
@@ -153,6 +161,11 @@ int parse_args(int argc, char** argv, Args& a) {
     } else if (arg == "--degree") {
       a.degree = std::atoi(next().c_str());
       if (a.degree != 1 && a.degree != 3) return usage();
+    } else if (arg == "--truth-against") {
+      a.truth_against = next();
+      if (a.truth_against.empty()) return usage();
+    } else if (arg == "--truth-only") {
+      a.truth_only = true;
     } else if (arg == "--simulate-mapped") {
       a.simulate_mapped = true;
     } else if (arg == "--canonical-refinement") {
@@ -162,7 +175,7 @@ int parse_args(int argc, char** argv, Args& a) {
       return usage();
     }
   }
-  if (a.points < 1) return usage();
+  if (a.points < 1 || (a.truth_only && a.truth_against.empty())) return usage();
   return 0;
 }
 
@@ -181,6 +194,9 @@ struct Row {
   int volume_points = 0;
   double volume_max = 0, host_volume_max = 0;
   double output_volume_max = -1;  // the interpolated brep_volume output's (-1: no output)
+  std::string reference_options;  // --truth-against: the reference host's options
+  std::string reference_note;     // why the reference could not be compared ("" if it was)
+  cadinterp::builder::TruthDependenceReport reference;
 };
 
 // The host options of model `name`: the small meshes unless --full, then --host-options.
@@ -299,6 +315,28 @@ void measure_volume(const std::string& path, const cadinterp_host* host,
   cadinterp_close(asset);
 }
 
+// --truth-against: the truth of Table 2 (the host at the table's options) against a second host
+// of the model with the extra options appended, at the same random points (the same seed), and
+// the asset at `path` ("": none) against that second host.
+void measure_truth(const std::string& name, const cadinterp_host& table, const std::string& options,
+                   const std::string& path, const Args& a, Row& row) {
+  row.reference_options = options + (options.empty() ? "" : ",") + a.truth_against;
+  const char* error = nullptr;
+  const cadinterp_host* ref =
+      cadinterp_host_entry(model_of(name).c_str(), row.reference_options.c_str(), &error);
+  if (!ref) {
+    row.reference_note = error ? error : "the host refused the options";
+    return;
+  }
+  std::fprintf(stderr, "%s: the truth against %s...\n", name.c_str(), ref->identity);
+  try {
+    const cadinterp::mesh::Host t(table), r(*ref);
+    row.reference = cadinterp::builder::measure_truth_dependence(t, r, a.points, a.seed, path);
+  } catch (const std::exception& ex) {
+    row.reference_note = ex.what();
+  }
+}
+
 // Builds model `name` and measures its asset into a row of `rows`; false when the host refuses
 // the model (the reason printed).
 bool measure_model(const std::string& name, const Args& a, std::vector<Row>& rows) {
@@ -311,6 +349,11 @@ bool measure_model(const std::string& name, const Args& a, std::vector<Row>& row
   if (!host) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), error);
     return false;
+  }
+  if (a.truth_only) {
+    measure_truth(name, *host, options, "", a, row);
+    rows.push_back(row);
+    return true;
   }
   const cadinterp::occt::Model* model = cadinterp::occt::host_model(host);
   model->reset_stage_times();
@@ -338,6 +381,7 @@ bool measure_model(const std::string& name, const Args& a, std::vector<Row>& row
     row.note = std::string("accuracy: ") + ex.what();
   }
   measure_volume(path, host, model, a, row);
+  if (!a.truth_against.empty() && row.accuracy) measure_truth(name, *host, options, path, a, row);
   rows.push_back(row);
   return true;
 }
@@ -413,6 +457,24 @@ void print_table2_fields(const Row& r) {
   }
 }
 
+// Table 2's FEM columns: over the simulated fields (von Mises, displacement, temperature), not
+// `traction`, which is the applied load the host writes for display; |error| / the field's
+// range at that point. Max: over every vertex of every point. 99%: over every vertex value of
+// every point, pooled (a per-point statistic would be the max again at 100 points). The largest
+// over those fields.
+struct Fem {
+  double max = 0, p99 = 0;
+};
+Fem fem_columns(const cadinterp::builder::AccuracyReport& acc) {
+  Fem f;
+  for (std::size_t k = 0; k < acc.field_names.size(); ++k) {
+    if (acc.field_names[k] == "traction") continue;
+    f.max = std::max(f.max, acc.field_max_by_field[k]);
+    f.p99 = std::max(f.p99, acc.field_vertex_p99_by_field[k]);
+  }
+  return f;
+}
+
 // Table 2: the assets' geometry and FEM error against true regenerations.
 void print_table2(const std::vector<Row>& rows) {
   std::printf(
@@ -424,17 +486,8 @@ void print_table2(const std::vector<Row>& rows) {
       std::printf("         %-11s  n/a: %s\n", r.model.c_str(), r.note.c_str());
       continue;
     }
-    // FEM error: the simulated fields (von Mises, displacement, temperature), not `traction`,
-    // which is the applied load the host writes for display; |error| / the field's range at
-    // that point. Max: over every vertex of every point. 99%: over every vertex value of every
-    // point, pooled (a per-point statistic would be the max again at 100 points). The largest
-    // over those fields.
-    double fem_max = 0, fem_p99 = 0;
-    for (std::size_t k = 0; k < r.acc.field_names.size(); ++k) {
-      if (r.acc.field_names[k] == "traction") continue;
-      fem_max = std::max(fem_max, r.acc.field_max_by_field[k]);
-      fem_p99 = std::max(fem_p99, r.acc.field_vertex_p99_by_field[k]);
-    }
+    const Fem fem = fem_columns(r.acc);
+    const double fem_max = fem.max, fem_p99 = fem.p99;
     if (r.acc.field_points == 0) {
       std::printf(
           "         %-11s  %d (%d infeasible, %d lost)  %.4f (%.4f)  %.4f (%.4f)  n/a: no field "
@@ -486,6 +539,52 @@ void print_estimates(const std::vector<Row>& rows) {
                   q ? r.acc.field_names[q - 1].c_str() : "geometry", r.acc.estimate_points[q],
                   100 * r.acc.estimate_coverage[q], r.acc.estimate_median_ratio[q],
                   r.acc.estimate_p10_ratio[q]);
+  }
+}
+
+// --truth-against: Table 2's truth against the reference host, per field and as Table 2's FEM
+// columns (the simulated fields, not `traction`).
+void print_truth(const std::vector<Row>& rows) {
+  std::printf(
+      "\nTruth    model    points (compared)  FEM max  FEM 99%%  (the table's host against the "
+      "reference: the truth's own mesh term)\n");
+  for (const Row& r : rows) {
+    if (r.reference_options.empty()) continue;
+    if (!r.reference_note.empty()) {
+      std::printf("         %-11s  n/a: %s\n", r.model.c_str(), r.reference_note.c_str());
+      continue;
+    }
+    const auto& t = r.reference;
+    double fem_max = 0, fem_p99 = 0;
+    for (std::size_t k = 0; k < t.field_names.size(); ++k) {
+      if (t.field_names[k] == "traction") continue;
+      fem_max = std::max(fem_max, t.max_by_field[k]);
+      fem_p99 = std::max(fem_p99, t.vertex_p99_by_field[k]);
+    }
+    std::printf("         %-11s  %d (%d)  %.4f   %.4f   reference: %s\n", r.model.c_str(), t.points,
+                t.compared, fem_max, fem_p99, r.reference_options.c_str());
+    if (t.has_asset) {
+      const Fem f = fem_columns(t.asset);
+      std::printf(
+          "           the asset against the reference (Table 2 with its truth): geometry max "
+          "%.4f  99%% %.4f  FEM max %.4f  99%% %.4f  (%d points, %d infeasible)\n",
+          t.asset.geometry_max, t.asset.geometry_p99, f.max, f.p99, t.asset.points,
+          t.asset.infeasible);
+      for (std::size_t k = 0; k < t.asset.field_names.size(); ++k)
+        std::printf("             field %-14s max %.4f  99%% of values %.4f\n",
+                    t.asset.field_names[k].c_str(), t.asset.field_max_by_field[k],
+                    t.asset.field_vertex_p99_by_field[k]);
+    }
+    for (std::size_t k = 0; k < t.field_names.size(); ++k) {
+      std::printf("           field %-14s max %.4f  99%% of values %.4f", t.field_names[k].c_str(),
+                  t.max_by_field[k], t.vertex_p99_by_field[k]);
+      if (t.max_by_field[k] > 0) {
+        std::printf("  max at (%.2f, %.2f, %.2f), x =", t.max_at[k][0], t.max_at[k][1],
+                    t.max_at[k][2]);
+        for (double v : t.max_x[k]) std::printf(" %.4g", v);
+      }
+      std::printf("\n");
+    }
   }
 }
 
@@ -557,12 +656,18 @@ int main(int argc, char** argv) {
   for (const std::string& name : a.models)
     if (!measure_model(name, a, rows)) return 1;
 
-  std::printf("OCCT host results (%s meshes, %s assets; paper figures in brackets)\n\n",
+  std::printf("OCCT host results (%s meshes, %s assets; paper figures in brackets)\n",
               a.full ? "full-size" : "small", a.degree == 3 ? "cubic" : "linear");
+  if (a.truth_only) {
+    print_truth(rows);
+    return 0;
+  }
+  std::printf("\n");
   print_table1(rows, a.simulate_mapped);
   print_table2(rows);
   print_feasibility(rows);
   print_estimates(rows);
   print_volumes(rows);
+  if (!a.truth_against.empty()) print_truth(rows);
   return 0;
 }
