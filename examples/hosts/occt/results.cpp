@@ -563,6 +563,16 @@ void print_truth(const std::vector<Row>& rows) {
     }
     std::printf("         %-11s  %d (%d)  %.4f   %.4f   reference: %s\n", r.model.c_str(), t.points,
                 t.compared, fem_max, fem_p99, r.reference_options.c_str());
+    for (std::size_t k = 0; k < t.field_names.size(); ++k) {
+      std::printf("           field %-14s max %.4f  99%% of values %.4f", t.field_names[k].c_str(),
+                  t.max_by_field[k], t.vertex_p99_by_field[k]);
+      if (t.max_by_field[k] > 0) {
+        std::printf("  max at (%.2f, %.2f, %.2f), x =", t.max_at[k][0], t.max_at[k][1],
+                    t.max_at[k][2]);
+        for (double v : t.max_x[k]) std::printf(" %.4g", v);
+      }
+      std::printf("\n");
+    }
     if (t.has_asset) {
       const Fem f = fem_columns(t.asset);
       std::printf(
@@ -574,16 +584,6 @@ void print_truth(const std::vector<Row>& rows) {
         std::printf("             field %-14s max %.4f  99%% of values %.4f\n",
                     t.asset.field_names[k].c_str(), t.asset.field_max_by_field[k],
                     t.asset.field_vertex_p99_by_field[k]);
-    }
-    for (std::size_t k = 0; k < t.field_names.size(); ++k) {
-      std::printf("           field %-14s max %.4f  99%% of values %.4f", t.field_names[k].c_str(),
-                  t.max_by_field[k], t.vertex_p99_by_field[k]);
-      if (t.max_by_field[k] > 0) {
-        std::printf("  max at (%.2f, %.2f, %.2f), x =", t.max_at[k][0], t.max_at[k][1],
-                    t.max_at[k][2]);
-        for (double v : t.max_x[k]) std::printf(" %.4g", v);
-      }
-      std::printf("\n");
     }
   }
 }
