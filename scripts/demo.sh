@@ -17,8 +17,8 @@
 # error estimate, docs/error-estimates.md): on this budget (40 samples, depth 4) geometry at most
 # 6.5e-4 of the diagonal, within its tolerance; von Mises up to 0.68 of its range, far from its.
 # Against the host at 100 random points (2026-11-28, docs/error-estimates.md) geometry is off by
-# at most 6e-4, von Mises by 0.34 of its range and displacement by 0.033; the estimates bound
-# those at 95-97 % of the points (traction, the applied load, at 70 %).
+# at most 4e-4, von Mises by 0.48 of its range and displacement by 0.040; the estimates bound
+# those at 95-97 % of the points (traction, the applied load, at 65 %).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
