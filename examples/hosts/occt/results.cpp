@@ -427,6 +427,28 @@ void print_table1(const std::vector<Row>& rows, bool simulate_mapped) {
   }
 }
 
+// Table 2's FEM columns: over the simulated fields (von Mises, displacement, temperature), not
+// `traction`, which is the applied load the host writes for display; |error| / the field's
+// range at that point. Max: over every vertex of every point. 99%: over every vertex value of
+// every point, pooled (a per-point statistic would be the max again at 100 points). The largest
+// over those fields, from their per-field max and 99 % (in `names` order).
+struct Fem {
+  double max = 0, p99 = 0;
+};
+Fem fem_columns(const std::vector<std::string>& names, const std::vector<double>& max,
+                const std::vector<double>& p99) {
+  Fem f;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    if (names[k] == "traction") continue;
+    f.max = std::max(f.max, max[k]);
+    f.p99 = std::max(f.p99, p99[k]);
+  }
+  return f;
+}
+Fem fem_columns(const cadinterp::builder::AccuracyReport& acc) {
+  return fem_columns(acc.field_names, acc.field_max_by_field, acc.field_vertex_p99_by_field);
+}
+
 // The row's Table 2 lines past the first: per field, and against the host's FEM on each
 // evaluated mesh (the interpolation's error without the two meshes' discretization difference
 // the truth holds).
@@ -438,16 +460,12 @@ void print_table2_fields(const Row& r) {
         r.acc.field_names[k].c_str(), r.acc.field_max_by_field[k],
         r.acc.field_vertex_p99_by_field[k], r.acc.field_p99_by_field[k], r.acc.field_points);
   if (r.acc.evaluated_mesh_points + r.acc.evaluated_mesh_refused > 0) {
-    double own_max = 0, own_p99 = 0;
-    for (std::size_t k = 0; k < r.acc.field_names.size(); ++k) {
-      if (r.acc.field_names[k] == "traction") continue;
-      own_max = std::max(own_max, r.acc.evaluated_mesh_max_by_field[k]);
-      own_p99 = std::max(own_p99, r.acc.evaluated_mesh_vertex_p99_by_field[k]);
-    }
+    const Fem own = fem_columns(r.acc.field_names, r.acc.evaluated_mesh_max_by_field,
+                                r.acc.evaluated_mesh_vertex_p99_by_field);
     std::printf(
         "           against the host's FEM on the evaluated mesh: FEM max %.4f  99%% %.4f  (%d "
         "points, %d not simulated%s%s)\n",
-        own_max, own_p99, r.acc.evaluated_mesh_points, r.acc.evaluated_mesh_refused,
+        own.max, own.p99, r.acc.evaluated_mesh_points, r.acc.evaluated_mesh_refused,
         r.acc.evaluated_mesh_refused ? ", first: " : "",
         r.acc.evaluated_mesh_first_refusal.c_str());
     for (std::size_t k = 0; k < r.acc.field_names.size(); ++k)
@@ -455,24 +473,6 @@ void print_table2_fields(const Row& r) {
                   r.acc.field_names[k].c_str(), r.acc.evaluated_mesh_max_by_field[k],
                   r.acc.evaluated_mesh_vertex_p99_by_field[k]);
   }
-}
-
-// Table 2's FEM columns: over the simulated fields (von Mises, displacement, temperature), not
-// `traction`, which is the applied load the host writes for display; |error| / the field's
-// range at that point. Max: over every vertex of every point. 99%: over every vertex value of
-// every point, pooled (a per-point statistic would be the max again at 100 points). The largest
-// over those fields.
-struct Fem {
-  double max = 0, p99 = 0;
-};
-Fem fem_columns(const cadinterp::builder::AccuracyReport& acc) {
-  Fem f;
-  for (std::size_t k = 0; k < acc.field_names.size(); ++k) {
-    if (acc.field_names[k] == "traction") continue;
-    f.max = std::max(f.max, acc.field_max_by_field[k]);
-    f.p99 = std::max(f.p99, acc.field_vertex_p99_by_field[k]);
-  }
-  return f;
 }
 
 // Table 2: the assets' geometry and FEM error against true regenerations.
@@ -487,7 +487,6 @@ void print_table2(const std::vector<Row>& rows) {
       continue;
     }
     const Fem fem = fem_columns(r.acc);
-    const double fem_max = fem.max, fem_p99 = fem.p99;
     if (r.acc.field_points == 0) {
       std::printf(
           "         %-11s  %d (%d infeasible, %d lost)  %.4f (%.4f)  %.4f (%.4f)  n/a: no field "
@@ -500,7 +499,7 @@ void print_table2(const std::vector<Row>& rows) {
         "         %-11s  %d (%d infeasible, %d lost)  %.4f (%.4f)  %.4f (%.4f)  %.4f (%.4f)  "
         "%.4f (%.4f)\n",
         r.model.c_str(), r.acc.points, r.acc.infeasible, r.acc.lost, r.acc.geometry_max,
-        p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0, fem_max, p ? p->fmax : 0, fem_p99,
+        p ? p->gmax : 0, r.acc.geometry_p99, p ? p->g99 : 0, fem.max, p ? p->fmax : 0, fem.p99,
         p ? p->f99 : 0);
     print_table2_fields(r);
   }
@@ -555,14 +554,9 @@ void print_truth(const std::vector<Row>& rows) {
       continue;
     }
     const auto& t = r.reference;
-    double fem_max = 0, fem_p99 = 0;
-    for (std::size_t k = 0; k < t.field_names.size(); ++k) {
-      if (t.field_names[k] == "traction") continue;
-      fem_max = std::max(fem_max, t.max_by_field[k]);
-      fem_p99 = std::max(fem_p99, t.vertex_p99_by_field[k]);
-    }
+    const Fem own = fem_columns(t.field_names, t.max_by_field, t.vertex_p99_by_field);
     std::printf("         %-11s  %d (%d)  %.4f   %.4f   reference: %s\n", r.model.c_str(), t.points,
-                t.compared, fem_max, fem_p99, r.reference_options.c_str());
+                t.compared, own.max, own.p99, r.reference_options.c_str());
     for (std::size_t k = 0; k < t.field_names.size(); ++k) {
       std::printf("           field %-14s max %.4f  99%% of values %.4f", t.field_names[k].c_str(),
                   t.max_by_field[k], t.vertex_p99_by_field[k]);
