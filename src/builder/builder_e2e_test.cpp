@@ -442,8 +442,6 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
   EXPECT_TRUE(differs);
 }
 
-// Without the mesh mapper (the identity hook), elements across resolutions cannot be built, and
-// the build says why by name.
 // The truth's own mesh term (cadinterp-occt-results --truth-against). A host against itself
 // differs by nothing. Against a finer mesh of the same model, the plate's temperature (the
 // closed form at the vertices, quadratic along the plate) differs by the coarser mesh's linear
@@ -497,6 +495,8 @@ TEST(EndToEnd, TruthDependenceIsTheCoarserMeshsInterpolationError) {
                std::invalid_argument);
 }
 
+// Without the mesh mapper (the identity hook), elements across resolutions cannot be built, and
+// the build says why by name.
 TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
   const cadinterp_host* fine = host("plate", "edge=8");
   ASSERT_NE(fine, nullptr);
