@@ -8,7 +8,7 @@
 //
 //   cadinterp-occt-results [--full] [--models wrench,hub,...] [--points N] [--max-samples N]
 //                          [--max-depth N] [--threads N] [--seed S] [--dir DIR] [--degree 1|3]
-//                          [--truth-against K=V,...] [--truth-only]
+//                          [--truth-against K=V,...] [--truth-only] [--store S]
 //
 // Without --full the meshes are small (a few thousand tets) so that the whole run takes minutes;
 // --full uses the models' default mesh sizes.
@@ -91,7 +91,7 @@ int usage() {
                "                              [--seed S] [--dir DIR] [--host-options K=V,...]\n"
                "                              [--simulate-mapped] [--canonical-refinement N]\n"
                "                              [--degree 1|3] [--truth-against K=V,...]\n"
-               "                              [--truth-only]\n"
+               "                              [--truth-only] [--store S]\n"
                "       cadinterp-occt-results --beam\n"
                "  --host-options    appended to every model's options (e.g. order=2)\n"
                "  --simulate-mapped the builder simulates each mapped term on its mapped mesh\n"
@@ -102,6 +102,11 @@ int usage() {
                "                    a second host of each model with S appended to its\n"
                "                    options (e.g. mesh_size=4): the truth's own mesh term\n"
                "  --truth-only      with --truth-against: only that comparison, no build\n"
+               "  --store S         keeps each model's samples in the sample store\n"
+               "                    S/occt_results_MODEL.store, so that a later run of the same\n"
+               "                    host options (--degree 3 after 1, other --points) reads\n"
+               "                    those it needs instead of calling the host; a store of\n"
+               "                    other host options is refused\n"
                "  --beam            only the FEM against beam theory (wrench handle, press spine)\n"
                "                    by element order and mesh size\n");
   return 2;
@@ -121,6 +126,7 @@ struct Args {
   bool beam = false;
   std::string truth_against;  // --truth-against: the reference host's extra options
   bool truth_only = false;    // --truth-only: no build, only the truth against the reference
+  std::string store;          // --store: the sample stores' directory ("": none)
 };
 
 // Parses the command line into `a`: 0, or the exit status of a usage error (the usage printed).
@@ -164,6 +170,9 @@ int parse_args(int argc, char** argv, Args& a) {
     } else if (arg == "--truth-against") {
       a.truth_against = next();
       if (a.truth_against.empty()) return usage();
+    } else if (arg == "--store") {
+      a.store = next();
+      if (a.store.empty()) return usage();
     } else if (arg == "--truth-only") {
       a.truth_only = true;
     } else if (arg == "--simulate-mapped") {
@@ -182,6 +191,7 @@ int parse_args(int argc, char** argv, Args& a) {
 // One model's build and measurements: a row of each table.
 struct Row {
   std::string model, note;
+  bool build_failed = false;  // note says why
   int K = 0, depth = 0, samples = 0, infeasible = 0, elements = 0, bad_elements = 0, stored = 0;
   int unmapped = 0;                          // of bad_elements: samples feasible, a term not mapped
   int simulated = 0, simulate_failures = 0;  // --simulate-mapped: mapped terms
@@ -219,6 +229,10 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   if (a.canonical_refinement >= 0) o.canonical_refinement = a.canonical_refinement;
   o.max_samples = a.max_samples > 0 ? a.max_samples : (a.full ? 256 : 40);
   o.max_depth = a.max_depth >= 0 ? a.max_depth : (a.full ? 8 : 4);
+  // One store per model, whatever the degree: a cubic build starts on the linear one's grid and
+  // reads every sample the two share. The store's identity check refuses other host options.
+  const std::string store = a.store.empty() ? "" : a.store + "/occt_results_" + name + ".store";
+  o.store_path = store.empty() ? nullptr : store.c_str();
   row.K = host->parameter_count;
   row.depth = o.max_depth;
   // A build of a model with many parameters runs for tens of minutes (each element maps its
@@ -250,7 +264,10 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   row.refined_vertices = b.stages.refined_vertices;
   row.stored = b.report.stored_meshes;
   row.per_sample =
-      b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : 0;
+      b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : -1;
+  if (!store.empty())
+    std::fprintf(stderr, "  %s: sample store %s: %d points read, %d host evaluations\n",
+                 name.c_str(), store.c_str(), b.report.store_hits, b.report.host_evaluations);
   return b;
 }
 
@@ -364,6 +381,7 @@ bool measure_model(const std::string& name, const Args& a, std::vector<Row>& row
   row.stages = model->stage_times();
   if (b.status != CADINTERP_OK) {
     row.note = std::string(cadinterp_status_string(b.status)) + ": " + b.error;
+    row.build_failed = true;
     rows.push_back(row);
     return true;
   }
@@ -394,12 +412,14 @@ void print_table1(const std::vector<Row>& rows, bool simulate_mapped) {
       "unmapped)  mean tets (paper)  stored meshes (paper)  host s/sample\n");
   for (const Row& r : rows) {
     const PaperRow* p = paper(r.model);
+    char per_sample[40] = "- (every sample from the store)";
+    if (r.per_sample >= 0) std::snprintf(per_sample, sizeof per_sample, "%.3f", r.per_sample);
     std::printf(
         "         %-11s  %d (%d)      %d      %4d (%d)        %4d        %4d (%d, %d)"
-        "                %8.0f (%s)     %5d (%d)             %.3f\n",
+        "                %8.0f (%s)     %5d (%d)             %s\n",
         r.model.c_str(), r.K, p ? p->K : 0, r.depth, r.samples, p ? p->samples : 0, r.infeasible,
         r.elements, r.bad_elements, r.unmapped, r.mesh_tets, p ? p->mesh : "-", r.stored,
-        p ? p->storage : 0, r.per_sample);
+        p ? p->storage : 0, per_sample);
   }
   for (const Row& r : rows)
     if (r.refined_elements > 0)
@@ -646,6 +666,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "cannot create --dir %s: %s\n", a.dir.c_str(), ec.message().c_str());
     return 1;
   }
+  if (!a.store.empty()) std::filesystem::create_directories(a.store, ec);
+  if (ec) {
+    std::fprintf(stderr, "cannot create --store %s: %s\n", a.store.c_str(), ec.message().c_str());
+    return 1;
+  }
   std::vector<Row> rows;
   for (const std::string& name : a.models)
     if (!measure_model(name, a, rows)) return 1;
@@ -663,5 +688,8 @@ int main(int argc, char** argv) {
   print_estimates(rows);
   print_volumes(rows);
   if (!a.truth_against.empty()) print_truth(rows);
-  return 0;
+  // A model whose build failed (its reason in Table 2) fails the run, after the others' tables.
+  const bool failed =
+      std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.build_failed; });
+  return failed ? 1 : 0;
 }
