@@ -574,9 +574,9 @@ void print_truth(const std::vector<Row>& rows) {
       continue;
     }
     const auto& t = r.reference;
-    const Fem own = fem_columns(t.field_names, t.max_by_field, t.vertex_p99_by_field);
+    const Fem fem = fem_columns(t.field_names, t.max_by_field, t.vertex_p99_by_field);
     std::printf("         %-11s  %d (%d)  %.4f   %.4f   reference: %s\n", r.model.c_str(), t.points,
-                t.compared, own.max, own.p99, r.reference_options.c_str());
+                t.compared, fem.max, fem.p99, r.reference_options.c_str());
     for (std::size_t k = 0; k < t.field_names.size(); ++k) {
       std::printf("           field %-14s max %.4f  99%% of values %.4f", t.field_names[k].c_str(),
                   t.max_by_field[k], t.vertex_p99_by_field[k]);

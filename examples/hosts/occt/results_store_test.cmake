@@ -8,31 +8,27 @@ file(REMOVE_RECURSE ${WORK})
 set(common --models wrench_load --points 1 --max-samples 3 --max-depth 1 --store ${WORK}/store)
 set(asset occt_results_wrench_load.cadi)
 
-function(run dir extra)
+# Runs the tool into WORK/dir with `extra` options; fails the test with `why` unless it exits
+# with `want_rc` and its output matches `pattern` (CMAKE_MATCH_1 is passed back).
+function(expect dir extra want_rc pattern why)
   execute_process(COMMAND ${TOOL} ${common} --dir ${WORK}/${dir} ${extra}
                   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  set(rc ${rc} PARENT_SCOPE)
-  set(log "${out}${err}" PARENT_SCOPE)
+  if(NOT rc EQUAL want_rc OR NOT "${out}${err}" MATCHES "${pattern}")
+    message(FATAL_ERROR "${dir} run (exit ${rc}) ${why}:\n${out}${err}")
+  endif()
+  set(CMAKE_MATCH_1 "${CMAKE_MATCH_1}" PARENT_SCOPE)
 endfunction()
 
-run(first "")
-if(NOT rc EQUAL 0 OR NOT log MATCHES "store [^\n]*: 0 points read, ([1-9][0-9]*) host evaluations")
-  message(FATAL_ERROR "first run (exit ${rc}) did not fill a new store:\n${log}")
-endif()
+expect(first "" 0 "store [^\n]*: 0 points read, ([1-9][0-9]*) host evaluations"
+       "did not fill a new store")
 set(points ${CMAKE_MATCH_1})
-
-run(second "")
-if(NOT rc EQUAL 0 OR NOT log MATCHES "store [^\n]*: ${points} points read, 0 host evaluations")
-  message(FATAL_ERROR "second run (exit ${rc}) did not read all ${points} points:\n${log}")
-endif()
+expect(second "" 0 "store [^\n]*: ${points} points read, 0 host evaluations"
+       "did not read all ${points} points")
 execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${WORK}/first/${asset}
                         ${WORK}/second/${asset} RESULT_VARIABLE differ)
 if(differ)
   message(FATAL_ERROR "the asset built from the store differs from the first")
 endif()
-
-run(third "--host-options;force=100")
-if(NOT rc EQUAL 1 OR NOT log MATCHES "holds samples of another model")
-  message(FATAL_ERROR "other host options (exit ${rc}) were not refused:\n${log}")
-endif()
+expect(third "--host-options;force=100" 1 "holds samples of another model"
+       "did not refuse other host options")
 file(REMOVE_RECURSE ${WORK})
