@@ -8,6 +8,7 @@
 
 #include "cadinterp/cadinterp.h"
 #include "mapping/field_transfer.h"
+#include "mapping/parallel_for.h"
 #include "mesh/surface_distance.h"
 
 namespace cadinterp::builder {
@@ -40,6 +41,16 @@ std::vector<double> random_point(std::mt19937& rng, const Host& host) {
   for (std::size_t d = 0; d < x.size(); ++d)
     x[d] = std::uniform_real_distribution<double>(host.lower()[d], host.upper()[d])(rng);
   return x;
+}
+
+// The next of a measurement's random points (at most `left`) to go to the hosts at once: a few
+// per thread, so that the comparisons between batches are short pauses and few samples are held.
+std::vector<std::vector<double>> next_batch(std::mt19937& rng, const Host& host, int left,
+                                            int threads) {
+  std::vector<std::vector<double>> xs;
+  for (int i = 0; i < std::min(left, 4 * std::max(1, threads)); ++i)
+    xs.push_back(random_point(rng, host));
+  return xs;
 }
 
 // A mesh's per-vertex values against `truth` where the meshes differ: each vertex v (at
@@ -135,10 +146,6 @@ class AccuracyRun {
     if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
       throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
     asset_.reset(raw);
-    cadinterp_workspace* wraw = nullptr;
-    if (cadinterp_workspace_create(asset_.get(), &wraw) != CADINTERP_OK)
-      throw std::runtime_error("cannot create a workspace");
-    ws_.reset(wraw);
     // Per-vertex fields are compared; per-tet fields follow the same blend.
     for (int f = 0; f < cadinterp_field_count(asset_.get()); ++f) {
       cadinterp_field_info info;
@@ -167,39 +174,72 @@ class AccuracyRun {
     }
   }
 
-  // One random point: the asset against the host's regeneration there (`known`, when the
-  // caller has it already).
-  void point(const std::vector<double>& x, const FieldTruthAt& field_truth, bool count_lost,
-             bool on_evaluated_mesh, const Sample* known = nullptr) {
-    ++r_.points;
-    std::fill(point_field_.begin(), point_field_.end(), 0.0);
-    cadinterp_mesh m;
-    const cadinterp_status st =
-        cadinterp_eval(ws_.get(), x.data(), fields_.data(), static_cast<int>(fields_.size()), &m);
-    if (st == CADINTERP_E_INFEASIBLE) {
-      ++r_.infeasible;
-      // Whether the host could have answered: the part of the feasible box the asset lost
-      // (elements refused around it) rather than points the host itself refuses.
-      if (count_lost && host_.evaluate(x.data()).feasible) ++r_.lost;
-      return;
+  // A batch of random points, each the asset against the host's regeneration there: known[i]
+  // when the caller has it already, else the host is asked here. The host's calls (regenerate,
+  // and with on_evaluated_mesh simulate on each evaluated mesh) run on `threads` threads; the
+  // comparisons run here in the points' order, so the report does not depend on `threads`.
+  void batch(const std::vector<std::vector<double>>& xs, const FieldTruthAt& field_truth,
+             bool count_lost, bool on_evaluated_mesh, int threads, const Sample* known = nullptr) {
+    const std::size_t n = xs.size();
+    // Each point's evaluated mesh stays in its own workspace until the batch is compared.
+    while (ws_.size() < n) {
+      cadinterp_workspace* raw = nullptr;
+      if (cadinterp_workspace_create(asset_.get(), &raw) != CADINTERP_OK)
+        throw std::runtime_error("cannot create a workspace");
+      ws_.emplace_back(raw);
     }
-    if (st != CADINTERP_OK)
-      throw std::runtime_error(std::string("eval failed: ") + cadinterp_workspace_error(ws_.get()));
-    Sample evaluated;
-    const Sample& truth = known ? *known : (evaluated = host_.evaluate(x.data()));
-    if (!truth.feasible) return;  // the runtime interpolated across a point the host refuses
+    std::vector<cadinterp_mesh> m(n);
+    std::vector<cadinterp_status> st(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      st[i] = cadinterp_eval(ws_[i].get(), xs[i].data(), fields_.data(),
+                             static_cast<int>(fields_.size()), &m[i]);
+      if (st[i] != CADINTERP_OK && st[i] != CADINTERP_E_INFEASIBLE)
+        throw std::runtime_error(std::string("eval failed: ") +
+                                 cadinterp_workspace_error(ws_[i].get()));
+    }
+    // The host where the runtime answers, and where it refuses with count_lost: whether the
+    // host could have answered (the part of the feasible box the asset lost).
+    std::vector<Sample> asked;
+    if (!known) {
+      asked.resize(n);
+      mapping::parallel_for(n, threads, [&](std::size_t i) {
+        if (st[i] == CADINTERP_OK || count_lost) asked[i] = host_.evaluate(xs[i].data());
+      });
+    }
+    const Sample* truth = known ? known : asked.data();
+    std::vector<Sample> own;
+    std::vector<std::string> why;
+    if (on_evaluated_mesh) simulate_on_evaluated_meshes(xs, st, m, truth, threads, own, why);
+    for (std::size_t i = 0; i < n; ++i) {
+      ++r_.points;
+      if (st[i] == CADINTERP_E_INFEASIBLE) {
+        ++r_.infeasible;
+        if (count_lost && truth[i].feasible) ++r_.lost;
+        continue;
+      }
+      // The runtime interpolated across a point the host refuses: nothing to compare.
+      if (!truth[i].feasible) continue;
+      compare(xs[i], m[i], truth[i], field_truth);
+      if (on_evaluated_mesh) against_host_on_evaluated_mesh(m[i], truth[i], own[i], why[i]);
+      note_estimates(xs[i]);
+    }
+  }
+
+  // One point the runtime and the host both answer: geometry, then the fields against the
+  // truth the host gives.
+  void compare(const std::vector<double>& x, const cadinterp_mesh& m, const Sample& truth,
+               const FieldTruthAt& field_truth) {
+    std::fill(point_field_.begin(), point_field_.end(), 0.0);
     const std::vector<double> V(m.positions, m.positions + 3 * m.vertex_count);
     const std::vector<std::uint32_t> F(m.triangles, m.triangles + 3 * m.triangle_count);
     geo_.push_back(symmetric_hausdorff(V, F, truth.vertices, truth.triangles) /
                    truth.bbox_diagonal());
-    if (on_evaluated_mesh) against_host_on_evaluated_mesh(x, truth, m, V, F);
     if (field_truth)
       against_closed_form(x, truth, m, field_truth);
     else if (!same_mesh(truth, m))
       against_located_truth(truth, m);
     else
       against_same_mesh(truth, m);
-    note_estimates(x);
   }
 
   // The asset's own error estimates at x next to the errors just measured (the point's last
@@ -281,21 +321,37 @@ class AccuracyRun {
     ++r_.field_points;
   }
 
-  // The host's own simulate on the evaluated mesh (no two-mesh discretization difference in the
-  // truth): its fields against the asset's, where the host's regions can be placed on that mesh.
-  void against_host_on_evaluated_mesh(const std::vector<double>& x, const Sample& truth,
-                                      const cadinterp_mesh& m, const std::vector<double>& V,
-                                      const std::vector<std::uint32_t>& F) {
-    evaluated_.tets.assign(m.tets, m.tets + 4 * std::size_t(m.tet_count));
-    evaluated_.triangles = F;
-    evaluated_.triangle_tags.assign(m.triangle_tags, m.triangle_tags + m.triangle_count);
-    Sample mesh;
-    std::string why;
-    Sample own;
-    if (mapping::mesh_for_simulation(truth, evaluated_, V, mesh, why)) {
-      own = host_.simulate(x.data(), mesh);
-      why = own.message;
+  // The host's own simulate on each evaluated mesh (no two-mesh discretization difference in
+  // the truth), where the host's regions can be placed on that mesh: own[i], or why[i] it is
+  // not there. The meshes are made here, the simulations run on `threads` threads.
+  void simulate_on_evaluated_meshes(const std::vector<std::vector<double>>& xs,
+                                    const std::vector<cadinterp_status>& st,
+                                    const std::vector<cadinterp_mesh>& m, const Sample* truth,
+                                    int threads, std::vector<Sample>& own,
+                                    std::vector<std::string>& why) {
+    const std::size_t n = xs.size();
+    own.assign(n, Sample{});
+    why.assign(n, std::string());
+    std::vector<Sample> mesh(n);
+    std::vector<char> ready(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (st[i] != CADINTERP_OK || !truth[i].feasible) continue;
+      evaluated_.tets.assign(m[i].tets, m[i].tets + 4 * std::size_t(m[i].tet_count));
+      evaluated_.triangles.assign(m[i].triangles, m[i].triangles + 3 * m[i].triangle_count);
+      evaluated_.triangle_tags.assign(m[i].triangle_tags, m[i].triangle_tags + m[i].triangle_count);
+      const std::vector<double> V(m[i].positions, m[i].positions + 3 * m[i].vertex_count);
+      ready[i] = mapping::mesh_for_simulation(truth[i], evaluated_, V, mesh[i], why[i]) ? 1 : 0;
     }
+    mapping::parallel_for(n, threads, [&](std::size_t i) {
+      if (!ready[i]) return;
+      own[i] = host_.simulate(xs[i].data(), mesh[i]);
+      why[i] = own[i].message;
+    });
+  }
+
+  // The asset's fields against the host's simulate on the evaluated mesh (`own`, or `why` not).
+  void against_host_on_evaluated_mesh(const cadinterp_mesh& m, const Sample& truth,
+                                      const Sample& own, const std::string& why) {
     if (!own.feasible) {
       if (r_.evaluated_mesh_refused++ == 0) r_.evaluated_mesh_first_refusal = why;
       return;
@@ -377,7 +433,7 @@ class AccuracyRun {
 
   const Host& host_;
   std::unique_ptr<cadinterp_asset, AssetCloser> asset_;
-  std::unique_ptr<cadinterp_workspace, WorkspaceDestroyer> ws_;
+  std::vector<std::unique_ptr<cadinterp_workspace, WorkspaceDestroyer>> ws_;  // per batch slot
   std::vector<int> fields_;
   AccuracyReport r_;
   std::vector<double> geo_, fld_;
@@ -395,16 +451,20 @@ class AccuracyRun {
 
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& field_truth, bool count_lost,
-                                bool on_evaluated_mesh) {
+                                bool on_evaluated_mesh, int threads) {
   AccuracyRun run(asset_path, host);
   std::mt19937 rng(seed);
-  for (int i = 0; i < points; ++i)
-    run.point(random_point(rng, host), field_truth, count_lost, on_evaluated_mesh);
+  for (int done = 0; done < points;) {
+    const std::vector<std::vector<double>> xs = next_batch(rng, host, points - done, threads);
+    done += static_cast<int>(xs.size());
+    run.batch(xs, field_truth, count_lost, on_evaluated_mesh, threads);
+  }
   return run.finish();
 }
 
 TruthDependenceReport measure_truth_dependence(const Host& table, const Host& reference, int points,
-                                               unsigned seed, const std::string& asset_path) {
+                                               unsigned seed, const std::string& asset_path,
+                                               int threads) {
   if (table.dim() != reference.dim() || table.lower() != reference.lower() ||
       table.upper() != reference.upper())
     throw std::invalid_argument("measure_truth_dependence: the hosts' parameter boxes differ");
@@ -412,16 +472,12 @@ TruthDependenceReport measure_truth_dependence(const Host& table, const Host& re
   std::unique_ptr<AccuracyRun> asset;
   if (!asset_path.empty()) asset = std::make_unique<AccuracyRun>(asset_path, reference);
   std::vector<std::vector<double>> pooled;
-  std::mt19937 rng(seed);
-  for (int i = 0; i < points; ++i) {
-    const std::vector<double> x = random_point(rng, table);
+  // One point, the reference's answer against the table's.
+  const auto compare = [&](const std::vector<double>& x, const Sample& other, const Sample& truth) {
     ++r.points;
-    const Sample other = reference.evaluate(x.data());
-    if (asset) asset->point(x, nullptr, false, false, &other);
-    const Sample truth = table.evaluate(x.data());
     if (!truth.feasible || !other.feasible) {
       ++r.infeasible;
-      continue;
+      return;
     }
     // The reference's per-vertex fields, matched with the table's by name, in the reference's
     // order (the first point fixes it).
@@ -465,6 +521,19 @@ TruthDependenceReport measure_truth_dependence(const Host& table, const Host& re
           }
           pooled[k].push_back(err);
         });
+  };
+  std::mt19937 rng(seed);
+  for (int done = 0; done < points;) {
+    const std::vector<std::vector<double>> xs = next_batch(rng, table, points - done, threads);
+    done += static_cast<int>(xs.size());
+    // Both hosts at every point of the batch: the reference's answers first, then the table's.
+    const std::size_t n = xs.size();
+    std::vector<Sample> answers(2 * n);
+    mapping::parallel_for(2 * n, threads, [&](std::size_t j) {
+      answers[j] = (j < n ? reference : table).evaluate(xs[j % n].data());
+    });
+    if (asset) asset->batch(xs, nullptr, false, false, threads, answers.data());
+    for (std::size_t i = 0; i < n; ++i) compare(xs[i], answers[i], answers[n + i]);
   }
   for (auto& p : pooled) r.vertex_p99_by_field.push_back(percentile99(std::move(p)));
   if (asset) {

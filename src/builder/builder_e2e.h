@@ -98,9 +98,14 @@ using FieldTruthAt = std::function<bool(int field, const double* x, const double
 /// count the feasible points the asset lost (`lost`).
 /// With `on_evaluated_mesh` (needs a host with simulate), also the
 /// evaluated_mesh_* statistics: one more simulate per feasible point.
+/// `threads`: the host's regenerations run on that many threads, a few points per thread at a
+/// time (one at a time for a host that is not thread-safe); the comparisons run on the calling
+/// thread in the points' order, so the report is the same for every thread count. `truth` is
+/// called on the calling thread only.
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& truth = nullptr,
-                                bool count_lost = false, bool on_evaluated_mesh = false);
+                                bool count_lost = false, bool on_evaluated_mesh = false,
+                                int threads = 1);
 
 /// The truth's own mesh dependence (Table 2's FEM columns take their truth from one mesh of x):
 /// at the `points` random x that measure_accuracy visits with `seed`, each per-vertex field of
@@ -112,7 +117,8 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
 /// With `asset_path`, also that asset against `reference` at the same points, as
 /// measure_accuracy measures it against its host (each reference evaluation serving both):
 /// Table 2 against a finer truth. Throws as measure_accuracy for the asset.
-/// Fields are matched by name, components and location. Not thread-safe beyond the hosts' own
+/// Fields are matched by name, components and location. `threads` as for measure_accuracy
+/// (both hosts' regenerations of a batch share them). Not thread-safe beyond the hosts' own
 /// evaluate. Throws std::invalid_argument when the parameter boxes differ and
 /// std::runtime_error when the matched fields change between points.
 struct TruthDependenceReport {
@@ -129,6 +135,7 @@ struct TruthDependenceReport {
   AccuracyReport asset;    ///< the asset against `reference` (has_asset)
 };
 TruthDependenceReport measure_truth_dependence(const Host& table, const Host& reference, int points,
-                                               unsigned seed, const std::string& asset_path = {});
+                                               unsigned seed, const std::string& asset_path = {},
+                                               int threads = 1);
 
 }  // namespace cadinterp::builder

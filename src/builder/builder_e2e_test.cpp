@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +17,7 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "analytic_host.h"
@@ -493,6 +496,112 @@ TEST(EndToEnd, TruthDependenceIsTheCoarserMeshsInterpolationError) {
   ASSERT_NE(other, nullptr);
   EXPECT_THROW(builder::measure_truth_dependence(h8, mesh::Host(*other), 1, 3),
                std::invalid_argument);
+}
+
+// Every member of two accuracy reports, the per-point records included.
+void expect_same_report(const builder::AccuracyReport& a, const builder::AccuracyReport& b) {
+  EXPECT_EQ(a.points, b.points);
+  EXPECT_EQ(a.infeasible, b.infeasible);
+  EXPECT_EQ(a.lost, b.lost);
+  EXPECT_EQ(a.field_points, b.field_points);
+  EXPECT_EQ(a.geometry_max, b.geometry_max);
+  EXPECT_EQ(a.geometry_p99, b.geometry_p99);
+  EXPECT_EQ(a.field_max, b.field_max);
+  EXPECT_EQ(a.field_p99, b.field_p99);
+  EXPECT_EQ(a.field_names, b.field_names);
+  EXPECT_EQ(a.field_max_by_field, b.field_max_by_field);
+  EXPECT_EQ(a.field_p99_by_field, b.field_p99_by_field);
+  EXPECT_EQ(a.field_vertex_p99_by_field, b.field_vertex_p99_by_field);
+  EXPECT_EQ(a.evaluated_mesh_points, b.evaluated_mesh_points);
+  EXPECT_EQ(a.evaluated_mesh_refused, b.evaluated_mesh_refused);
+  EXPECT_EQ(a.evaluated_mesh_max_by_field, b.evaluated_mesh_max_by_field);
+  EXPECT_EQ(a.evaluated_mesh_vertex_p99_by_field, b.evaluated_mesh_vertex_p99_by_field);
+  EXPECT_EQ(a.estimate_points, b.estimate_points);
+  EXPECT_EQ(a.estimate_coverage, b.estimate_coverage);
+  EXPECT_EQ(a.estimate_median_ratio, b.estimate_median_ratio);
+  ASSERT_EQ(a.per_point.size(), b.per_point.size());
+  for (std::size_t i = 0; i < a.per_point.size(); ++i) {
+    EXPECT_EQ(a.per_point[i].x, b.per_point[i].x) << i;
+    EXPECT_EQ(a.per_point[i].estimate, b.per_point[i].estimate) << i;
+    EXPECT_EQ(a.per_point[i].error, b.per_point[i].error) << i;
+  }
+}
+
+// The measurements ask the host on several threads, yet report what one thread reports: the
+// comparisons keep the points' order. The plate failing in a quarter disk gives points the
+// runtime refuses (and the host's answer there for `lost`), and its simulate the comparison on
+// each evaluated mesh. 13 points: batches of 4 points on one thread, of 12 on three, the last
+// batch short.
+TEST(EndToEnd, MeasurementsDoNotDependOnTheThreadCount) {
+  const cadinterp_host* h8 = host("plate", "edge=8,fail_region=2");
+  const cadinterp_host* h4 = host("plate", "edge=4,fail_region=2");
+  ASSERT_TRUE(h8 && h4);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 40;
+  o.threads = 2;
+  const std::string path = temp_path("threads.cadi");
+  ASSERT_EQ(build(h8, o, path).status, CADINTERP_OK);
+  // The host's regenerations in flight at once, each held 5 ms so that threads overlap.
+  struct InFlight {
+    const cadinterp_host* inner;
+    std::atomic<int> now{0}, most{0};
+  } counted{h8};
+  cadinterp_host wrapped = *h8;
+  wrapped.user = &counted;
+  wrapped.regenerate = [](void* u, const double* x, cadinterp_sample* out) {
+    auto* w = static_cast<InFlight*>(u);
+    const int now = ++w->now;
+    for (int m = w->most; now > m && !w->most.compare_exchange_weak(m, now);) {
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    const cadinterp_status s = w->inner->regenerate(w->inner->user, x, out);
+    --w->now;
+    return s;
+  };
+  wrapped.references = [](void* u, const double* x, cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<InFlight*>(u)->inner;
+    return in->references(in->user, x, out);
+  };
+  wrapped.simulate = [](void* u, const double* x, const cadinterp_host_mesh* mesh,
+                        cadinterp_sample* out) {
+    const cadinterp_host* in = static_cast<InFlight*>(u)->inner;
+    return in->simulate(in->user, x, mesh, out);
+  };
+  const mesh::Host counting(wrapped), fine(*h4);
+  const builder::AccuracyReport one =
+      builder::measure_accuracy(path, counting, 13, 4, nullptr, true, true, 1);
+  EXPECT_EQ(counted.most, 1);
+  const builder::AccuracyReport three =
+      builder::measure_accuracy(path, counting, 13, 4, nullptr, true, true, 3);
+  EXPECT_GE(counted.most, 2);
+  std::printf(
+      "[ figures ] plate failing in a quarter disk, 13 points: %d refused (%d lost), %d "
+      "compared, %d on their evaluated meshes\n",
+      one.infeasible, one.lost, one.field_points, one.evaluated_mesh_points);
+  EXPECT_EQ(one.points, 13);
+  EXPECT_GT(one.infeasible, 0);
+  EXPECT_GT(one.field_points, 0);
+  EXPECT_GT(one.evaluated_mesh_points, 0);
+  expect_same_report(one, three);
+
+  counted.most = 0;
+  const builder::TruthDependenceReport t1 =
+      builder::measure_truth_dependence(counting, fine, 13, 4, path, 1);
+  EXPECT_EQ(counted.most, 1);
+  const builder::TruthDependenceReport t3 =
+      builder::measure_truth_dependence(counting, fine, 13, 4, path, 3);
+  EXPECT_GE(counted.most, 2);
+  EXPECT_GT(t1.compared, 0);
+  EXPECT_EQ(t1.points, t3.points);
+  EXPECT_EQ(t1.infeasible, t3.infeasible);
+  EXPECT_EQ(t1.compared, t3.compared);
+  EXPECT_EQ(t1.field_names, t3.field_names);
+  EXPECT_EQ(t1.max_by_field, t3.max_by_field);
+  EXPECT_EQ(t1.vertex_p99_by_field, t3.vertex_p99_by_field);
+  EXPECT_EQ(t1.max_x, t3.max_x);
+  expect_same_report(t1.asset, t3.asset);
+  std::filesystem::remove(path);
 }
 
 // Without the mesh mapper (the identity hook), elements across resolutions cannot be built, and

@@ -22,6 +22,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "builder/builder_e2e.h"
@@ -97,6 +98,8 @@ int usage() {
                "  --simulate-mapped the builder simulates each mapped term on its mapped mesh\n"
                "                    instead of carrying the sample's fields over\n"
                "  --canonical-refinement N  rounds of canonical refinement (default 3, 0: none)\n"
+               "  --threads N       the build's threads, and the truth's regenerations and\n"
+               "                    simulations (default 0: every core)\n"
                "  --degree 1|3      the assets' basis: 1 linear (default), 3 cubic\n"
                "  --truth-against S also compares, at the same random points, the truth with\n"
                "                    a second host of each model with S appended to its\n"
@@ -332,6 +335,12 @@ void measure_volume(const std::string& path, const cadinterp_host* host,
   cadinterp_close(asset);
 }
 
+// The truth's regenerations run on the build's threads (0: every core).
+int truth_threads(const Args& a) {
+  return a.threads > 0 ? a.threads
+                       : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
 // --truth-against: the truth of Table 2 (the host at the table's options) against a second host
 // of the model with the extra options appended, at the same random points (the same seed), and
 // the asset at `path` ("": none) against that second host.
@@ -348,7 +357,8 @@ void measure_truth(const std::string& name, const cadinterp_host& table, const s
   std::fprintf(stderr, "%s: the truth against %s...\n", name.c_str(), ref->identity);
   try {
     const cadinterp::mesh::Host t(table), r(*ref);
-    row.reference = cadinterp::builder::measure_truth_dependence(t, r, a.points, a.seed, path);
+    row.reference = cadinterp::builder::measure_truth_dependence(t, r, a.points, a.seed, path,
+                                                                 truth_threads(a));
   } catch (const std::exception& ex) {
     row.reference_note = ex.what();
   }
@@ -392,7 +402,7 @@ bool measure_model(const std::string& name, const Args& a, std::vector<Row>& row
     // Also against the host's FEM on each evaluated mesh itself, which leaves out the
     // difference between the host's mesh of x and the evaluated one.
     row.acc = cadinterp::builder::measure_accuracy(path, truth, a.points, a.seed, nullptr, true,
-                                                   host->simulate != nullptr);
+                                                   host->simulate != nullptr, truth_threads(a));
     row.accuracy = true;
     write_points(path.substr(0, path.size() - 5) + "_points.tsv", host, row.acc);
   } catch (const std::exception& ex) {
