@@ -627,7 +627,7 @@ TEST(EndToEnd, PlateWithTheIdentityMapperNamesWhyItCannotBlend) {
 
 // The default mapper is the mesh mapper, and its name is what the asset's provenance records.
 TEST(EndToEnd, DefaultMapperIsTheMeshMapperAndNamedInProvenance) {
-  EXPECT_STREQ(builder::default_mapper().name(), "mesh-v9");
+  EXPECT_STREQ(builder::default_mapper().name(), "mesh-v10");
   const std::string json =
       builder::options_json(builder::BuildOptions{}, builder::default_mapper().name());
   EXPECT_NE(json.find(std::string("\"mapper\":\"") + builder::default_mapper().name() + "\""),

@@ -81,10 +81,10 @@ std::string inverted_message(const MappingState& st) {
          ")";
 }
 
-}  // namespace
-
-bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
-                std::string& why, MapStats* stats, const MapOptions& options) {
+// One run of §6's stages; where tets stay inverted and `retries` holds, the retries of
+// MapOptions in turn, the first that maps kept.
+bool map_runs(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+              std::string& why, MapStats* stats, const MapOptions& options, bool retries) {
   why.clear();
   if (!check_inputs(source, canonical, why)) return false;
   MappingState st(source, canonical, options, out, why);
@@ -127,26 +127,30 @@ bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh:
     stats->boundary_moved = st.boundary_moved;
     stats->smoothed = st.smooth != nullptr;
   }
-  // The whole mapping again with other options; its result replaces this one when it succeeds.
-  auto retry = [&](const MapOptions& other) {
+  // The whole mapping again with other options (and, with `nested`, their own retries); its
+  // result replaces this one when it succeeds.
+  auto retry = [&](const MapOptions& other, bool nested) {
     mesh::MappedSample other_out;
     std::string other_why;
     MapStats other_stats;
-    if (!map_sample(source, canonical, other_out, other_why, &other_stats, other)) return false;
+    if (!map_runs(source, canonical, other_out, other_why, &other_stats, other, nested))
+      return false;
     out = std::move(other_out);
     if (stats) *stats = other_stats;
     return true;
   };
-  if (q.inverted > 0 && !folded && options.smooth_alpha > 0 && !options.foldover_free_early) {
+  if (retries && q.inverted > 0 && !folded && options.smooth_alpha > 0 &&
+      !options.foldover_free_early) {
     // The same mapping on the flat source triangles, kept when it succeeds: the reconstruction
     // lifts boundary vertices by up to the chordal sag, which can leave a thin tet near the
     // boundary inverted that the flat placement does not (measured on the OpenCASCADE press: 1
     // of 9 pairs; others the other way round), so the smooth placement never costs a pair.
     MapOptions flat = options;
     flat.smooth_alpha = 0;
-    if (retry(flat)) return true;
+    flat.subdivide_retry_ratio = 0;  // the subdivided retry below is made once, last
+    if (retry(flat, true)) return true;
   }
-  if (q.inverted > 0 && options.foldover_free && !options.foldover_free_early) {
+  if (retries && q.inverted > 0 && options.foldover_free && !options.foldover_free_early) {
     // Once more with the untangling inside every interior solve, so that the release and the
     // boundary untangling start from an untangled interior. Neither order rescues every pair
     // (on the OpenCASCADE press across its topology change, some pairs map only one way, some
@@ -154,7 +158,16 @@ bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh:
     // inside every solve it costs minutes on a pair it cannot rescue.
     MapOptions early = options;
     early.foldover_free_early = true;
-    if (retry(early)) return true;
+    early.subdivide_retry_ratio = 0;
+    if (retry(early, true)) return true;
+  }
+  if (retries && q.inverted > 0 && options.subdivide_ratio == 0 &&
+      options.subdivide_retry_ratio > 0) {
+    // Last, so that every pair the retries above map keeps its result; one run without retries
+    // of its own, so that a pair refused anyway costs one run more (MapOptions).
+    MapOptions subdivided = options;
+    subdivided.subdivide_ratio = options.subdivide_retry_ratio;
+    if (retry(subdivided, false)) return true;
   }
   if (q.inverted > 0) {
     why = inverted_message(st);
@@ -164,6 +177,13 @@ bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh:
   const TetLocator locator(source);
   out.fields = transfer_fields(source, canonical, out.vertices, st.on_surface, st.where, locator);
   return true;
+}
+
+}  // namespace
+
+bool map_sample(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+                std::string& why, MapStats* stats, const MapOptions& options) {
+  return map_runs(source, canonical, out, why, stats, options, true);
 }
 
 }  // namespace cadinterp::mapping

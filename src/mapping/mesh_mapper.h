@@ -88,6 +88,16 @@ struct MapOptions {
   /// Patches subdivided by a path between two anchors of their loop that is shorter than this
   /// fraction of the way round the loop between them (§6.2; 0: none).
   double subdivide_ratio = 0;
+  /// Where tets stay inverted after every retry above and subdivide_ratio is 0, the whole
+  /// mapping once more with subdivide_ratio at this value (0: no such retry). A long thin
+  /// patch (the side face of a bent plate 3 mm thick and 90 mm round) crowds its middle onto
+  /// a chord of its disk, and two samples crowd it differently: their composed maps pressed
+  /// the OpenCASCADE mount's vertices 0.3 mm inside an edge to 2e-4 mm of it, and a tet across
+  /// the edge stayed flat; paths across the narrows cut the strip into disks that do not
+  /// crowd. A retry, not the default: on pairs that map without it subdivision changes no
+  /// measured result and costs 1.9x the time (docs/mapping-decisions.md). One run, without the
+  /// flat and early retries of its own, so that a pair refused anyway costs one run more.
+  double subdivide_retry_ratio = 0.3;
   /// Traced layout paths measured along their geodesics (geodesic.h) for the boundary of the
   /// patches' disks; false: along their mesh edges.
   bool geodesic_paths = true;
@@ -108,7 +118,7 @@ class MeshMapper final : public mesh::Mapper {
   }
   // Recorded in every asset's provenance: it names the mapping's results, so it changes (the
   // number goes up) exactly when some mapping's output does, and never otherwise.
-  const char* name() const override { return "mesh-v9"; }
+  const char* name() const override { return "mesh-v10"; }
 };
 
 }  // namespace cadinterp::mapping

@@ -190,6 +190,10 @@ bool parse_pairs_options(const std::vector<std::string>& args, PairsOptions& o) 
   p.option("subdivide", 0, "R",
            "subdivide patches by paths shorter than R times the way round their loop (0: none)",
            &mo.subdivide_ratio, 0.0, 1.0);
+  p.option("subdivide-retry", 0, "R",
+           "where tets stay inverted after every other retry, map once more with --subdivide R "
+           "(0: no such retry)",
+           &mo.subdivide_retry_ratio, 0.0, 1.0);
   int geodesic = 1;
   p.option("geodesic", 0, "0|1",
            "measure traced layout paths along their geodesics (1) or their mesh edges (0)",
