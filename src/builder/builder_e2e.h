@@ -98,10 +98,10 @@ using FieldTruthAt = std::function<bool(int field, const double* x, const double
 /// count the feasible points the asset lost (`lost`).
 /// With `on_evaluated_mesh` (needs a host with simulate), also the
 /// evaluated_mesh_* statistics: one more simulate per feasible point.
-/// `threads`: the host's regenerations run on that many threads, a few points per thread at a
-/// time (one at a time for a host that is not thread-safe); the comparisons run on the calling
-/// thread in the points' order, so the report is the same for every thread count. `truth` is
-/// called on the calling thread only.
+/// `threads`: the host's regenerations, and its simulations on the evaluated meshes, run on that
+/// many threads, a few points per thread at a time (one at a time for a host that is not
+/// thread-safe); the comparisons run on the calling thread in the points' order, so the report
+/// is the same for every thread count. `truth` is called on the calling thread only.
 AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host, int points,
                                 unsigned seed, const FieldTruthAt& truth = nullptr,
                                 bool count_lost = false, bool on_evaluated_mesh = false,
