@@ -23,16 +23,11 @@ namespace mapping = cadinterp::mapping;
 
 namespace {
 
-// Maps the sample at `source` onto the one at `canonical` and expects it mapped with no inverted
-// tet, its boundary within `hausdorff` of the source's (relative to the diagonal) and its
-// boundary-condition regions within 1 %. `stats_out`, if not null, gets the mapping's MapStats.
-void expect_maps(const std::string& model_name, const std::string& options,
-                 const std::vector<double>& source, const std::vector<double>& canonical,
-                 double hausdorff, mapping::MapStats* stats_out = nullptr) {
-  // Linear tets: the mapping does not look at the fields, and the FEM is 20x cheaper.
-  occt::Model model(model_name, options + ",order=1");
-  const mesh::Host host(*model.host());
-  const mesh::Sample a = host.evaluate(source.data()), c = host.evaluate(canonical.data());
+// Maps sample `a` onto `c` and expects it mapped with no inverted tet, its boundary within
+// `hausdorff` of the source's (relative to the diagonal) and its boundary-condition regions within
+// 1 %. `stats_out`, if not null, gets the mapping's MapStats.
+void expect_mapped(const mesh::Sample& a, const mesh::Sample& c, double hausdorff,
+                   mapping::MapStats* stats_out = nullptr) {
   ASSERT_TRUE(a.feasible) << a.message;
   ASSERT_TRUE(c.feasible) << c.message;
   EXPECT_FALSE(mesh::same_combinatorics(a, c));
@@ -46,6 +41,16 @@ void expect_maps(const std::string& model_name, const std::string& options,
   EXPECT_EQ(q.inverted, 0u);
   EXPECT_LT(q.hausdorff_max, hausdorff);
   EXPECT_LT(q.region_area_error, 1e-2);
+}
+
+// expect_mapped on the samples at `source` and `canonical` of the model with these options.
+void expect_maps(const std::string& model_name, const std::string& options,
+                 const std::vector<double>& source, const std::vector<double>& canonical,
+                 double hausdorff) {
+  // Linear tets: the mapping does not look at the fields, and the FEM is 20x cheaper.
+  occt::Model model(model_name, options + ",order=1");
+  const mesh::Host host(*model.host());
+  expect_mapped(host.evaluate(source.data()), host.evaluate(canonical.data()), hausdorff);
 }
 
 }  // namespace
@@ -143,12 +148,12 @@ TEST(OcctMapping, MountThinPlateStripsAreSubdividedWhereTheyCrowd) {
       "mesh_size=8,quality=2,angle=0.4,"
       "vary=base_length+height+thickness+bend_radius+hole_diameter";
   const std::vector<double> term{40, 50, 3, 10, 8}, centre{50, 45, 4.25, 7.75, 10};
-  mapping::MapStats stats;
-  expect_maps("mount", options, term, centre, 1e-3, &stats);
-  EXPECT_GT(stats.subdivided, 0u);
   occt::Model model("mount", options + ",order=1");
   const mesh::Host host(*model.host());
   const mesh::Sample a = host.evaluate(term.data()), c = host.evaluate(centre.data());
+  mapping::MapStats stats;
+  expect_mapped(a, c, 1e-3, &stats);
+  EXPECT_GT(stats.subdivided, 0u);
   mapping::MapOptions without;
   without.subdivide_retry_ratio = 0;
   mesh::MappedSample m;
