@@ -3,6 +3,7 @@
 #include "builder/mesh_problem.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -105,6 +106,7 @@ bool MeshProblem::quantity_errors(int at, int centre, const int* terms, const do
   const std::size_t nfields = canon.fields.size();
   std::vector<std::vector<double>> F(nfields);
   for (std::size_t f = 0; f < nfields; ++f) F[f].assign(canon.fields[f].values.size(), 0.0);
+  if (spare_threads_ > 1 && !map_terms(nfields ? at : -1, centre, terms, n)) return false;
   View m;
   for (int t = 0; t < n; ++t) {
     if (!view(terms[t], centre, m)) return false;
@@ -194,14 +196,33 @@ bool MeshProblem::view(int src, int canon, View& v) {
   const auto key = std::make_pair(src, canon);
   std::shared_ptr<const MappedSample> found;
   {
-    std::lock_guard<std::mutex> lock(maps_mu_);
-    if (failures_.count(key)) return false;
-    auto it = maps_.find(key);
-    if (it != maps_.end()) found = it->second.first;
+    // A pair another thread is mapping is waited for rather than mapped twice: the wait ends
+    // no later than this thread's own mapping would, and spends no core.
+    std::unique_lock<std::mutex> lock(maps_mu_);
+    for (;;) {
+      if (failures_.count(key)) return false;
+      auto it = maps_.find(key);
+      if (it != maps_.end()) {
+        found = it->second.first;
+        break;
+      }
+      if (mapping_.insert(key).second) break;  // this thread maps it
+      mapped_cv_.wait(lock);
+    }
   }
   if (!found) {
-    // Mapped outside the lock (mapping is the expensive part); two threads may map the same
-    // pair, with the same deterministic result.
+    // Mapped outside the lock (mapping is the expensive part).
+    struct Done {  // however the mapping ends (a cancelled simulation throws), waiters wake
+      MeshProblem& p;
+      std::pair<int, int> key;
+      ~Done() {
+        {
+          std::lock_guard<std::mutex> lock(p.maps_mu_);
+          p.mapping_.erase(key);
+        }
+        p.mapped_cv_.notify_all();
+      }
+    } done{*this, key};
     auto m = std::make_shared<MappedSample>();
     std::string why;
     const bool ok = mapper_.map(sample(src), sample(canon), *m, why);
@@ -274,14 +295,42 @@ const std::string& MeshProblem::why(int src, int canon) {
   return failures_[std::make_pair(src, canon)];
 }
 
+bool MeshProblem::map_terms(int at, int centre, const int* terms, int n) {
+  std::vector<int> rows(terms, terms + n), todo;
+  if (at >= 0) rows.push_back(at);
+  {
+    std::lock_guard<std::mutex> lock(maps_mu_);
+    for (int row : rows) {
+      const auto key = std::make_pair(row, centre);
+      if (failures_.count(key)) return false;
+      if (!same_class(row, centre) && !maps_.count(key)) todo.push_back(row);
+    }
+  }
+  std::sort(todo.begin(), todo.end());
+  todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
+  // One term the mapper refuses fails the whole test, so the others need not be mapped.
+  std::atomic<bool> refused{false};
+  mapping::parallel_for(todo.size(), spare_threads_, [&](std::size_t i) {
+    View v;
+    if (!refused.load(std::memory_order_relaxed) && !view(todo[i], centre, v))
+      refused.store(true, std::memory_order_relaxed);
+  });
+  return !refused.load();
+}
+
 void MeshProblem::errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) {
   out.assign(q.size(), 0.0);
   const int threads = std::max(1, exec_.concurrency());
-  // A wave with fewer tests than threads lends the spare ones to each test's two Hausdorff
-  // directions; otherwise one thread per test (a thread more per test would only oversubscribe
-  // the cores, and a 1-thread build stays serial).
-  hausdorff_threads_ = q.size() < static_cast<std::size_t>(threads) ? 2 : 1;
+  // A wave with fewer tests than threads lends the spare ones to each test: to its two
+  // Hausdorff directions, and to mapping its terms (a cubic test has up to 4^K terms, each a
+  // mapping that takes seconds on a CAD mesh). Otherwise one thread per test: a thread more per
+  // test would only oversubscribe the cores, and a 1-thread build stays serial.
+  const bool spare = q.size() < static_cast<std::size_t>(threads);
+  hausdorff_threads_ = spare ? 2 : 1;
+  spare_threads_ = spare ? threads / static_cast<int>(std::max<std::size_t>(1, q.size())) : 1;
   mapping::parallel_for(q.size(), threads, [&](std::size_t i) { out[i] = error(q[i]); });
+  // The element stage calls quantity_errors from its own threads, one element each.
+  spare_threads_ = 1;
 }
 
 bool MeshProblem::report_progress(int queued) {

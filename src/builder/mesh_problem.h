@@ -5,6 +5,7 @@
 // (element_stage.h) reads the same rows and maps after the refinement.
 #pragma once
 
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -12,6 +13,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -83,7 +85,8 @@ class MeshProblem final : public core::AdaptiveProblem {
     std::vector<const double*> fields;
     std::shared_ptr<const MappedSample> hold;  // keeps a cached map alive while viewed
   };
-  /// Thread-safe: the driver's errors() runs it from several threads.
+  /// Thread-safe: the driver's errors() runs it from several threads. A pair another thread is
+  /// mapping is waited for, not mapped again, so each pair is mapped once while it is cached.
   bool view(int src, int canon, View& v);
   /// simulate_mapped: replaces the carried fields of `m` (row src mapped onto `canon`'s mesh)
   /// by the host's simulate at row src's x on that mesh. False with `why` (m untouched) where
@@ -108,6 +111,12 @@ class MeshProblem final : public core::AdaptiveProblem {
  private:
   static constexpr std::size_t kMapCacheBytes = std::size_t(512) << 20;
 
+  // Maps the distinct rows one test views (its terms, and `at` unless it is -1) that are not in
+  // the cache onto `centre`, on spare_threads_ threads, so that the test's sum, in term order,
+  // finds them there and its result does not depend on the thread count. False as soon as one
+  // row cannot be mapped (the test fails then whatever the others give).
+  bool map_terms(int at, int centre, const int* terms, int n);
+
   // Rows with identical meshes (vertex count, tets, triangles, tags) share a class: the identity
   // mapping holds between them. Classes are numbered in row order, so deterministically.
   int combinatorics_class(const Sample& s);
@@ -131,9 +140,14 @@ class MeshProblem final : public core::AdaptiveProblem {
   std::deque<std::pair<int, int>> order_;  // insertion order of maps_ (eviction)
   std::map<std::pair<int, int>, std::string> failures_;
   std::size_t map_bytes_ = 0;
-  std::mutex maps_mu_;  // guards maps_, order_, failures_, map_bytes_
+  std::set<std::pair<int, int>> mapping_;  // pairs a thread is mapping now
+  std::condition_variable mapped_cv_;      // signalled when a pair leaves mapping_
+  std::mutex maps_mu_;                     // guards maps_, order_, failures_, map_bytes_, mapping_
   // Threads each refinement test's symmetric Hausdorff distance may use (set by errors()).
   int hausdorff_threads_ = 1;
+  // Threads each refinement test may map its terms on (set by errors() for its wave; 1 outside
+  // it, where the element stage runs one element per thread).
+  int spare_threads_ = 1;
   int done_ = 0, elements_ = 0;
   double host_seconds_done_ = 0;
   bool cancel_ = false;
