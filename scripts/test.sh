@@ -40,19 +40,26 @@ cmake --preset release >/dev/null
 cmake --build --preset release -j "$JOBS"
 ctest --preset release -j "$JOBS"
 
+# Google Benchmark exits 0 when a filter matches nothing: require at least one result row.
+bench_filtered() {  # BINARY FILTER [MORE OPTIONS]
+  local bin=$1 filter=$2
+  shift 2
+  "$bin" --benchmark_filter="$filter" --benchmark_format=csv "$@" | grep -c '^"' >/dev/null ||
+    { echo "$bin: no benchmark matches '$filter'" >&2; return 1; }
+}
+
 step "release: benchmark smoke runs (measure nothing, prove the benchmarks run)"
 ./build/release/src/core/core_bench --benchmark_min_time=0.001 >/dev/null
 ./build/release/src/runtime/runtime_probe_bench --benchmark_min_time=0.001 >/dev/null
 ./build/release/src/mapping/mapping_bench --benchmark_min_time=0.001 >/dev/null
-./build/release/examples/physics/physics_benchmark --benchmark_min_time=0.001 \
-  --benchmark_filter='order1/1377' >/dev/null
+bench_filtered ./build/release/examples/physics/physics_benchmark 'order1/1377' \
+  --benchmark_min_time=0.001
 
 step "release: optimize_bench smoke run (mesh quantities vs per-sample outputs; a 2x2x2 box)"
 ./build/release/src/optimize/optimize_bench --cubes=2 --benchmark_min_time=0.001 >/dev/null
 
 step "release: builder benchmark smoke run (one 2-thread build of the refined bracket)"
-./build/release/src/builder/builder_bench --benchmark_filter='BM_Build/refined:1/threads:2' \
-  >/dev/null
+bench_filtered ./build/release/src/builder/builder_bench 'BM_Build/model:1/threads:2'
 
 step "install: consumers of a staged install (CMake package, pkg-config, static link)"
 BUILD_DIR=build/release scripts/test-install.sh
