@@ -364,6 +364,15 @@ typedef struct cadinterp_build_options {
    * directions can cost accuracy, so it is off by default. Recorded in the asset's provenance
    * when nonzero. */
   int lazy_face_centres;
+  /** Memory for the builder's cache of mapped samples, in bytes: each element's terms mapped
+   * onto its canonical mesh (paper §6), kept from the refinement's tests for the element stage,
+   * which needs the same maps. Once it is full the least recently used maps are dropped and
+   * mapped again when needed (cadinterp_build_stages.maps_again counts them), which costs time
+   * only: the asset's bytes do not depend on it. 0 (default): a quarter of the machine's physical
+   * memory, no less than 512 MiB (512 MiB where it cannot be read). A map takes 8 bytes per
+   * vertex coordinate and per vertex field component (a 4,400-vertex mesh with 7 field
+   * components: about 350 kB). */
+  uint64_t map_cache_bytes;
 } cadinterp_build_options;
 
 /** Fills `options` with the defaults above (struct_size included; other bytes zero). NULL is a
@@ -484,6 +493,12 @@ typedef struct cadinterp_build_stages {
   int infeasible_splits;
   int interior_unsplit;
   int bound_unsplit;
+  /** Samples mapped onto another sample's canonical mesh (the mapper's calls through the cache
+   * of cadinterp_build_options.map_cache_bytes; canonical refinement's maps onto a refined mesh
+   * are not counted), and of those the pairs mapped before, dropped from the full cache and
+   * needed again. */
+  int maps;
+  int maps_again;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed (zeros before the first). Fills

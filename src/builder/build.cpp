@@ -6,11 +6,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <exception>
 #include <limits>
 #include <memory>
 #include <thread>
+
+#if __has_include(<unistd.h>)
+#include <unistd.h>
+#endif
 
 #include "builder/element_stage.h"
 #include "builder/mesh_problem.h"
@@ -39,6 +44,20 @@ std::string store_fingerprint(const Host& host) {
           hex_double(host.lower()[static_cast<std::size_t>(d)]) + "," +
           hex_double(host.upper()[static_cast<std::size_t>(d)]) + "]";
   return fp;
+}
+
+std::size_t default_map_cache_bytes() {
+  constexpr std::size_t least = std::size_t(512) << 20;
+#if defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0) {
+    const std::uint64_t quarter =
+        static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) / 4;
+    return static_cast<std::size_t>(
+        std::clamp<std::uint64_t>(quarter, least, std::numeric_limits<std::size_t>::max()));
+  }
+#endif
+  return least;
 }
 
 const Mapper& default_mapper() {

@@ -96,7 +96,17 @@ struct BuildOptions {
   /// cadinterp_build_options::lazy_face_centres: the core's lazy face-centre test
   /// (core::AdaptiveOptions::lazy_face_centres), the direction inherited without a limit.
   bool lazy_face_centres = false;
+  /// cadinterp_build_options::map_cache_bytes: memory for mapped samples kept between the
+  /// refinement's tests and the element stage (0: default_map_cache_bytes()).
+  std::size_t map_cache_bytes = 0;
 };
+
+/// The map cache's budget when BuildOptions::map_cache_bytes is 0: a quarter of the machine's
+/// physical memory, no less than 512 MiB (512 MiB where the platform does not say). A cubic
+/// build of a five-parameter CAD model maps about 7,500 (element, term) pairs of about 350 kB
+/// each; with less room the element stage maps again what the refinement's tests mapped.
+/// Thread-safe; no failure.
+std::size_t default_map_cache_bytes();
 
 /// A point where the host failed, with its message.
 struct InfeasiblePoint {
@@ -145,6 +155,9 @@ struct BuildReport {
   /// The refinement toward infeasible regions (core::AdaptiveRun): elements split for depending
   /// on a failed point, and infeasible elements left unsplit, inside the region or at the bound.
   int infeasible_splits = 0, interior_unsplit = 0, bound_unsplit = 0;
+  /// Calls of the mapper through the map cache, and of those the pairs mapped again after the
+  /// cache dropped them (cadinterp_build_stages.maps, maps_again).
+  int maps = 0, maps_again = 0;
   /// Wall time per stage (seconds). store: opening the sample store; sampling: the refinement's
   /// waves of sample points (store reads, host evaluations, store writes); refinement: the rest
   /// of the adaptive run (error tests, including the mapping they need); elements: canonical

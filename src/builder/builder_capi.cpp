@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <new>
 #include <set>
 #include <string>
@@ -352,6 +354,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   bo.canonical_refinement = o.canonical_refinement;
   bo.infeasible_call_fraction = o.infeasible_call_fraction;
   bo.lazy_face_centres = o.lazy_face_centres != 0;
+  bo.map_cache_bytes = static_cast<std::size_t>(
+      std::min<std::uint64_t>(o.map_cache_bytes, std::numeric_limits<std::size_t>::max()));
   if (!std::isfinite(bo.infeasible_call_fraction))
     throw std::invalid_argument("options: infeasible_call_fraction must be finite");
   if (bo.canonical_refinement < 0 || bo.canonical_refinement > 20)
@@ -467,6 +471,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.infeasible_splits = d.infeasible_splits;
   s.interior_unsplit = d.interior_unsplit;
   s.bound_unsplit = d.bound_unsplit;
+  s.maps = d.maps;
+  s.maps_again = d.maps_again;
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -83,6 +85,44 @@ TEST(BuilderThreads, MappedBuildsAreRaceFreeAndIdentical) {
     EXPECT_EQ(r.report.infeasible_elements, 0);
     assets.push_back(bytes_of(out));
   }
+  EXPECT_EQ(assets[0], assets[1]);
+  std::filesystem::remove_all(dir);
+}
+
+// The map cache (cadinterp_build_options.map_cache_bytes) drops its least recently used maps
+// when full, while other threads may still read them, and the pairs needed again are mapped
+// again: a cubic foldplate across its topology change (its elements' terms mapped by the
+// refinement's tests, then by the element stage) built on 3 threads with the default cache and
+// with 256 KiB (a few of its maps) gives the same bytes. The default maps each pair once; the
+// small one maps the same pairs, about half of them again, and counts those.
+TEST(BuilderThreads, ASmallMapCacheMapsAgainAndGivesTheSameAsset) {
+  const char* err = nullptr;
+  const cadinterp_host* host = cadinterp_host_entry("foldplate", "edge=20", &err);
+  ASSERT_NE(host, nullptr) << err;
+  const std::string dir = std::filesystem::temp_directory_path().string() + "/cadinterp_btc_" +
+                          std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.degree = 3;
+  o.max_samples = 40;
+  o.threads = 3;
+  std::vector<std::vector<char>> assets;
+  std::vector<cadinterp_build_stages> stages;
+  for (std::uint64_t bytes : {std::uint64_t{0}, std::uint64_t{262144}}) {
+    o.map_cache_bytes = bytes;
+    const std::string out = dir + "/a" + std::to_string(bytes) + ".cadi";
+    const auto r = cadinterp::builder::build_asset(*host, o, out);
+    ASSERT_EQ(r.status, CADINTERP_OK) << r.error;
+    assets.push_back(bytes_of(out));
+    stages.push_back(r.stages);
+    std::printf("[ figures ] map cache of %llu bytes: %d maps, %d again\n",
+                static_cast<unsigned long long>(bytes), r.stages.maps, r.stages.maps_again);
+  }
+  EXPECT_GT(stages[0].maps, 0);
+  EXPECT_EQ(stages[0].maps_again, 0);
+  EXPECT_GT(stages[1].maps_again, 0);
+  EXPECT_EQ(stages[1].maps - stages[1].maps_again, stages[0].maps);
   EXPECT_EQ(assets[0], assets[1]);
   std::filesystem::remove_all(dir);
 }
@@ -178,6 +218,8 @@ TEST(BuilderThreads, EachPairIsMappedOnceOnAnyThreadCount) {
     results.push_back(cadinterp::builder::build(host, o));
     calls.push_back(mapper.calls());
     pairs.push_back(mapper.pairs());
+    EXPECT_EQ(results.back().details.maps, calls.back());
+    EXPECT_EQ(results.back().details.maps_again, 0);
     std::printf("[ figures ] cubic foldplate, %d threads: %d mappings of %d pairs\n", threads,
                 calls.back(), pairs.back());
   }

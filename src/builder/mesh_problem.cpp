@@ -203,7 +203,8 @@ bool MeshProblem::view(int src, int canon, View& v) {
       if (failures_.count(key)) return false;
       auto it = maps_.find(key);
       if (it != maps_.end()) {
-        found = it->second.first;
+        found = it->second.map;
+        recent_.splice(recent_.end(), recent_, it->second.recent);
         break;
       }
       if (mapping_.insert(key).second) break;  // this thread maps it
@@ -230,6 +231,8 @@ bool MeshProblem::view(int src, int canon, View& v) {
     const bool simulated =
         ok && opt_.simulate_mapped && simulate_on_mapped(src, sample(canon), *m, unsimulated);
     std::lock_guard<std::mutex> lock(maps_mu_);
+    ++details_.maps;
+    if (!mapped_.insert(key).second) ++details_.maps_again;
     if (ok && opt_.simulate_mapped) count_simulated(simulated, unsimulated);
     if (!ok) {
       failures_.emplace(key, why);
@@ -237,18 +240,17 @@ bool MeshProblem::view(int src, int canon, View& v) {
     }
     std::size_t bytes = m->vertices.size() * sizeof(double);
     for (const auto& f : m->fields) bytes += f.size() * sizeof(double);
-    // Oldest entries go first once the cache is over budget (maps are recomputed on demand).
-    while (!order_.empty() && map_bytes_ + bytes > kMapCacheBytes) {
-      auto old = maps_.find(order_.front());
-      order_.pop_front();
-      if (old == maps_.end()) continue;
-      map_bytes_ -= old->second.second;
+    // The least recently viewed maps go first once the cache is over budget (they are mapped
+    // again on demand, which only costs time: a map is deterministic).
+    while (!recent_.empty() && map_bytes_ + bytes > cache_budget_) {
+      auto old = maps_.find(recent_.front());
+      recent_.pop_front();
+      map_bytes_ -= old->second.bytes;
       maps_.erase(old);
     }
-    if (maps_.emplace(key, std::make_pair(m, bytes)).second) {
-      order_.push_back(key);
-      map_bytes_ += bytes;
-    }
+    recent_.push_back(key);
+    maps_.emplace(key, CachedMap{m, bytes, std::prev(recent_.end())});
+    map_bytes_ += bytes;
     found = m;
   }
   v.hold = found;

@@ -8,7 +8,7 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
-#include <deque>
+#include <list>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -50,7 +50,8 @@ class MeshProblem final : public core::AdaptiveProblem {
         store_(store),
         details_(report),
         report_(report.counts),
-        start_(start) {}
+        start_(start),
+        cache_budget_(opt.map_cache_bytes ? opt.map_cache_bytes : default_map_cache_bytes()) {}
 
   /// A wave of rows: from the store where it has them, else from the host through the
   /// executor (each stored as it arrives); feasibility and reasons decided in row order.
@@ -109,8 +110,6 @@ class MeshProblem final : public core::AdaptiveProblem {
   bool report_stage_progress(double eta_seconds);
 
  private:
-  static constexpr std::size_t kMapCacheBytes = std::size_t(512) << 20;
-
   // Maps the distinct rows one test views (its terms, and `at` unless it is -1) that are not in
   // the cache onto `centre`, on spare_threads_ threads, so that the test's sum, in term order,
   // finds them there and its result does not depend on the thread count. False as soon as one
@@ -136,13 +135,22 @@ class MeshProblem final : public core::AdaptiveProblem {
   std::vector<int> classes_;                    // per row (-1: infeasible)
   std::vector<const Sample*> representatives_;  // per class
   std::map<std::uint64_t, std::vector<int>> class_by_hash_;
-  std::map<std::pair<int, int>, std::pair<std::shared_ptr<MappedSample>, std::size_t>> maps_;
-  std::deque<std::pair<int, int>> order_;  // insertion order of maps_ (eviction)
+  // The map cache: pairs (source row, canonical row) to their maps, least recently viewed first
+  // in `recent_` (evicted first once map_bytes_ would exceed cache_budget_).
+  struct CachedMap {
+    std::shared_ptr<MappedSample> map;
+    std::size_t bytes = 0;
+    std::list<std::pair<int, int>>::iterator recent;
+  };
+  std::map<std::pair<int, int>, CachedMap> maps_;
+  std::list<std::pair<int, int>> recent_;
   std::map<std::pair<int, int>, std::string> failures_;
+  const std::size_t cache_budget_;
   std::size_t map_bytes_ = 0;
   std::set<std::pair<int, int>> mapping_;  // pairs a thread is mapping now
+  std::set<std::pair<int, int>> mapped_;   // pairs mapped so far (a map again counts in details_)
   std::condition_variable mapped_cv_;      // signalled when a pair leaves mapping_
-  std::mutex maps_mu_;                     // guards maps_, order_, failures_, map_bytes_, mapping_
+  std::mutex maps_mu_;  // guards maps_, recent_, failures_, map_bytes_, mapping_, mapped_
   // Threads each refinement test's symmetric Hausdorff distance may use (set by errors()).
   int hausdorff_threads_ = 1;
   // Threads each refinement test may map its terms on (set by errors() for its wave; 1 outside

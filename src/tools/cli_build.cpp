@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -130,6 +131,7 @@ struct BuildArgs {
   bool isolate = false;
   double sample_timeout = 0;
   int worker_memory = 0;
+  int map_cache_mb = 0;  // --map-cache (0: the builder's default)
 };
 
 void declare_options(ArgParser& p, BuildArgs& a) {
@@ -177,6 +179,11 @@ void declare_options(ArgParser& p, BuildArgs& a) {
          "for budget-bound builds: test an element's face centres only once\nit passes at "
          "those already answered (fewer host calls per sample)",
          &a.lazy_faces);
+  p.option("map-cache", 0, "MB",
+           "memory for mapped samples kept from the refinement for the\nelement stage, in MiB "
+           "(less: the same asset, mapped again)",
+           &a.map_cache_mb, 0, 1 << 30)
+      .show_default("a quarter of physical memory, at least 512");
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
   // --mpi: the MPI block below.
@@ -261,6 +268,9 @@ void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_b
   if (st.refined_elements > 0)
     std::fprintf(out, "  refined canonical  %d elements, %d vertices added\n", st.refined_elements,
                  st.refined_vertices);
+  if (st.maps > 0)
+    std::fprintf(out, "  maps               %d (%d again after the cache dropped them)\n", st.maps,
+                 st.maps_again);
   std::fprintf(out,
                "  stages             store %s, sampling %s, refinement %s, elements %s, "
                "writing %s\n",
@@ -470,6 +480,7 @@ int cmd_build(const std::vector<std::string>& args) {
   o.simulate_mapped = a.simulate_mapped ? 1 : 0;
   o.host_on_calling_thread = a.calling_thread ? 1 : 0;
   o.lazy_face_centres = a.lazy_faces ? 1 : 0;
+  o.map_cache_bytes = static_cast<std::uint64_t>(a.map_cache_mb) << 20;
   if (!a.store.empty()) o.store_path = a.store.c_str();
 
   LoadedHost host;

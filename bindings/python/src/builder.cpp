@@ -240,6 +240,8 @@ py::object report_of(const cadinterp_builder* builder, const std::string& output
       st.first_mapped_simulate_failure ? st.first_mapped_simulate_failure : "";
   stages["refined_elements"] = st.refined_elements;
   stages["refined_vertices"] = st.refined_vertices;
+  stages["maps"] = st.maps;
+  stages["maps_again"] = st.maps_again;
   py::list reasons;
   for (int i = 0; i < st.infeasible_reasons; ++i) {
     const char* message = nullptr;

@@ -14,6 +14,7 @@
 // --full uses the models' default mesh sizes.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -92,7 +93,7 @@ int usage() {
                "                              [--seed S] [--dir DIR] [--host-options K=V,...]\n"
                "                              [--simulate-mapped] [--canonical-refinement N]\n"
                "                              [--degree 1|3] [--truth-against K=V,...]\n"
-               "                              [--truth-only] [--store S]\n"
+               "                              [--truth-only] [--store S] [--map-cache MB]\n"
                "       cadinterp-occt-results --beam\n"
                "  --host-options    appended to every model's options (e.g. order=2)\n"
                "  --simulate-mapped the builder simulates each mapped term on its mapped mesh\n"
@@ -110,6 +111,8 @@ int usage() {
                "                    host options (--degree 3 after 1, other --points) reads\n"
                "                    those it needs instead of calling the host; a store of\n"
                "                    other host options is refused\n"
+               "  --map-cache MB    the builder's map cache, in MiB (default: a quarter of\n"
+               "                    physical memory); the assets do not depend on it\n"
                "  --beam            only the FEM against beam theory (wrench handle, press spine)\n"
                "                    by element order and mesh size\n");
   return 2;
@@ -130,6 +133,7 @@ struct Args {
   std::string truth_against;  // --truth-against: the reference host's extra options
   bool truth_only = false;    // --truth-only: no build, only the truth against the reference
   std::string store;          // --store: the sample stores' directory ("": none)
+  int map_cache_mb = 0;       // --map-cache (0: the builder's default)
 };
 
 // Parses the command line into `a`: 0, or the exit status of a usage error (the usage printed).
@@ -176,6 +180,9 @@ int parse_args(int argc, char** argv, Args& a) {
     } else if (arg == "--store") {
       a.store = next();
       if (a.store.empty()) return usage();
+    } else if (arg == "--map-cache") {
+      a.map_cache_mb = std::atoi(next().c_str());
+      if (a.map_cache_mb < 1) return usage();
     } else if (arg == "--truth-only") {
       a.truth_only = true;
     } else if (arg == "--simulate-mapped") {
@@ -199,6 +206,8 @@ struct Row {
   int unmapped = 0;                          // of bad_elements: samples feasible, a term not mapped
   int simulated = 0, simulate_failures = 0;  // --simulate-mapped: mapped terms
   int refined_elements = 0, refined_vertices = 0;  // canonical refinement
+  int maps = 0, maps_again = 0;                    // the builder's map cache
+  double refinement_seconds = 0, elements_seconds = 0;
   std::string first_simulate_failure;
   double mesh_tets = 0, per_sample = 0;
   cadinterp::occt::StageTimes stages;
@@ -229,6 +238,7 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   o.threads = a.threads;
   o.degree = a.degree;
   o.simulate_mapped = a.simulate_mapped ? 1 : 0;
+  o.map_cache_bytes = static_cast<std::uint64_t>(a.map_cache_mb) << 20;
   if (a.canonical_refinement >= 0) o.canonical_refinement = a.canonical_refinement;
   o.max_samples = a.max_samples > 0 ? a.max_samples : (a.full ? 256 : 40);
   o.max_depth = a.max_depth >= 0 ? a.max_depth : (a.full ? 8 : 4);
@@ -265,6 +275,10 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   row.first_simulate_failure = b.first_mapped_simulate_failure;
   row.refined_elements = b.stages.refined_elements;
   row.refined_vertices = b.stages.refined_vertices;
+  row.maps = b.stages.maps;
+  row.maps_again = b.stages.maps_again;
+  row.refinement_seconds = b.stages.refinement_seconds;
+  row.elements_seconds = b.stages.elements_seconds;
   row.stored = b.report.stored_meshes;
   row.per_sample =
       b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : -1;
@@ -431,6 +445,12 @@ void print_table1(const std::vector<Row>& rows, bool simulate_mapped) {
         r.elements, r.bad_elements, r.unmapped, r.mesh_tets, p ? p->mesh : "-", r.stored,
         p ? p->storage : 0, per_sample);
   }
+  for (const Row& r : rows)
+    if (!r.build_failed)
+      std::printf(
+          "         %-11s  build stages: refinement %.0f s, elements %.0f s; %d maps (%d again "
+          "after the map cache dropped them)\n",
+          r.model.c_str(), r.refinement_seconds, r.elements_seconds, r.maps, r.maps_again);
   for (const Row& r : rows)
     if (r.refined_elements > 0)
       std::printf("         %-11s  canonical meshes refined: %d elements, %d vertices added\n",
