@@ -499,6 +499,10 @@ typedef struct cadinterp_build_stages {
    * needed again. */
   int maps;
   int maps_again;
+  /** Cubic elements built on their corner fallback (their 2^K corners, multilinear) because
+   * one of their terms could not be mapped onto their canonical mesh although every sample is
+   * feasible; refused elements before this counter existed. Not counted in unmapped_elements. */
+  int unmapped_fallbacks;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed (zeros before the first). Fills

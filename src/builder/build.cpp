@@ -245,13 +245,13 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
   rep.samples = run.basis.sample_count();
   rep.elements = static_cast<int>(leaves.size());
   const std::vector<bool> infeasible_sample = host_failures(run, problem, details, out);
-  const core::CompiledBasis cb =
+  core::CompiledBasis cb =
       core::CompiledBasis::compile(run.basis, host.lower(), host.upper(), &infeasible_sample);
 
   // Map per element (§6): its canonical mesh and its terms in that mesh's combinatorics.
   std::vector<std::uint8_t> element_ok(leaves.size(), 1);
-  const Sample* field_source =
-      map_elements(host, opt, exec, problem, run, cb, leaves, details, out, element_ok);
+  const Sample* field_source = map_elements(host, opt, exec, problem, run, cb, infeasible_sample,
+                                            leaves, details, out, element_ok);
   if (!field_source) throw_no_element(leaves.size(), details);
 
   // The asset around its elements.

@@ -145,6 +145,9 @@ struct BuildReport {
   /// Elements refused although all their samples are feasible: a term could not be mapped into
   /// the canonical mesh (the rest of counts.infeasible_elements have an infeasible sample).
   int unmapped_elements = 0;
+  /// Cubic elements built on their corner fallback because a term could not be mapped onto
+  /// their canonical mesh (their samples all feasible); not refused, so not in the counts above.
+  int unmapped_fallbacks = 0;
   /// simulate_mapped: mapped terms simulated on their mapped mesh, and the failures (carried
   /// fields kept; the first failure's message).
   int mapped_simulated = 0, mapped_simulate_failures = 0;

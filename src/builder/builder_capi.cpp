@@ -473,6 +473,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.bound_unsplit = d.bound_unsplit;
   s.maps = d.maps;
   s.maps_again = d.maps_again;
+  s.unmapped_fallbacks = d.unmapped_fallbacks;
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

@@ -445,6 +445,83 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
   EXPECT_TRUE(differs);
 }
 
+// A cubic element one of whose neighbour terms (§5.3) cannot be mapped onto its canonical mesh
+// is built on its corner fallback instead of being refused: its corners' multilinear blend,
+// which needs only its own samples (§4.2's locality). The cubic foldplate at its start grid (no
+// split, so the tree is the same), once with the mesh mapper and once with a mapper that refuses
+// one pair (a neighbour term across the fold onto an element's centre; the direct transfer, so
+// that no bridge carries it): that element, and only it, changes to its 2^K corners, and
+// every other element's record is the same.
+TEST(EndToEnd, AnUnmappedCubicTermLeavesItsElementOnItsCorners) {
+  const cadinterp_host* h = host("foldplate", "edge=30");
+  ASSERT_NE(h, nullptr);
+  const mesh::Host fold(*h);
+  builder::BuildOptions o;
+  o.degree = core::Degree::Cubic;
+  o.max_samples = 2;
+  o.threads = 2;
+  o.neighbour_transfer = builder::NeighbourTransfer::Direct;
+  const builder::BuildResult one = builder::build(fold, o);
+  ASSERT_EQ(one.report.infeasible_elements, 0);
+  EXPECT_EQ(one.details.unmapped_fallbacks, 0);
+  const core::CompiledBasis& cb = *one.basis;
+  const int K = cb.dim();
+  // The first element with a term outside its box whose mesh differs from the element's centre.
+  int element = -1;
+  mesh::Sample term, centre;
+  for (int e = 0; element < 0 && e < cb.element_count(); ++e) {
+    std::vector<double> lo(static_cast<std::size_t>(K)), hi(lo), c(lo), x(lo);
+    cb.element_box(e, lo.data(), hi.data());
+    for (int d = 0; d < K; ++d) c[d] = (lo[d] + hi[d]) / 2;
+    centre = fold.evaluate(c.data());
+    int n = 0;
+    const int* terms = cb.element_samples(e, &n);
+    for (int t = 0; element < 0 && t < n; ++t) {
+      cb.sample_position(terms[t], x.data());
+      bool outside = false;
+      for (int d = 0; d < K; ++d) outside = outside || x[d] < lo[d] || x[d] > hi[d];
+      if (!outside) continue;
+      term = fold.evaluate(x.data());
+      if (!mesh::same_combinatorics(term, centre)) element = e;
+    }
+  }
+  ASSERT_GE(element, 0);
+  struct RefuseOne final : mesh::Mapper {
+    const mesh::Sample *term, *centre;
+    bool map(const mesh::Sample& source, const mesh::Sample& canonical, mesh::MappedSample& out,
+             std::string& why) const override {
+      if (source.vertices == term->vertices && canonical.vertices == centre->vertices) {
+        why = "refused by the test mapper";
+        return false;
+      }
+      return builder::default_mapper().map(source, canonical, out, why);
+    }
+    const char* name() const override { return builder::default_mapper().name(); }
+  } refuse;
+  refuse.term = &term;
+  refuse.centre = &centre;
+  o.mapper = &refuse;
+  const builder::BuildResult two = builder::build(fold, o);
+  EXPECT_EQ(two.report.infeasible_elements, 0);
+  EXPECT_EQ(two.details.unmapped_elements, 0);
+  EXPECT_EQ(two.details.unmapped_fallbacks, 1);
+  EXPECT_TRUE(two.infeasible.empty());
+  ASSERT_EQ(two.basis->element_count(), cb.element_count());
+  for (int e = 0; e < cb.element_count(); ++e) {
+    SCOPED_TRACE(e);
+    const auto& a = one.content.elements[static_cast<std::size_t>(e)];
+    const auto& b = two.content.elements[static_cast<std::size_t>(e)];
+    EXPECT_FALSE(cb.element_on_corner_fallback(e));
+    EXPECT_EQ(two.basis->element_on_corner_fallback(e), e == element);
+    EXPECT_TRUE(two.basis->element_feasible(e));
+    if (e == element) {
+      EXPECT_EQ(b.positions.size(), std::size_t{1} << K);
+    } else {
+      EXPECT_EQ(b.positions, a.positions);
+    }
+  }
+}
+
 // The truth's own mesh term (cadinterp-occt-results --truth-against). A host against itself
 // differs by nothing. Against a finer mesh of the same model, the plate's temperature (the
 // closed form at the vertices, quadratic along the plate) differs by the coarser mesh's linear

@@ -48,6 +48,7 @@ struct ElementTally {
   // The term that could not be mapped (at most one): its record and the mapper's reason.
   std::vector<std::pair<InfeasiblePoint, std::string>> refused;
   std::vector<std::pair<bool, std::string>> simulated;  // simulate_mapped outcomes, in order
+  bool corner_fallback = false;  // built again on its corner fallback (fall_back_to_corners)
 };
 
 void add(NeighbourTransferStats& to, const NeighbourTransferStats& d) {
@@ -82,9 +83,9 @@ void add(NeighbourTransferStats& to, const NeighbourTransferStats& d) {
 class ElementStage {
  public:
   ElementStage(const Host& host, const BuildOptions& opt, Executor& exec, MeshProblem& problem,
-               const core::AdaptiveRun& run, const core::CompiledBasis& cb,
-               const std::vector<int>& leaves, BuildReport& details, BuildResult& out,
-               std::vector<std::uint8_t>& element_ok)
+               const core::AdaptiveRun& run, core::CompiledBasis& cb,
+               const std::vector<bool>& infeasible_sample, const std::vector<int>& leaves,
+               BuildReport& details, BuildResult& out, std::vector<std::uint8_t>& element_ok)
       : opt_(opt),
         exec_(exec),
         problem_(problem),
@@ -92,6 +93,7 @@ class ElementStage {
         basis_(run.basis),
         tree_(run.basis.tree()),
         cb_(cb),
+        infeasible_sample_(infeasible_sample),
         leaves_(leaves),
         details_(details),
         rep_(details.counts),
@@ -111,6 +113,7 @@ class ElementStage {
       build_element(e, tallies[e]);
       ++elements_done_;
     });
+    fall_back_to_corners(tallies);
     set_field_floors(tallies);
     const Sample* field_source = nullptr;
     for (std::size_t e = 0; e < tallies.size(); ++e) merge(e, tallies[e], field_source);
@@ -121,6 +124,7 @@ class ElementStage {
   bool stop_requested();
   void poll();
   void build_element(std::size_t e, ElementTally& tally);
+  void fall_back_to_corners(std::vector<ElementTally>& tallies);
   void merge(std::size_t e, ElementTally& tally, const Sample*& field_source);
   void set_field_floors(std::vector<ElementTally>& tallies) const;
   bool map_term(std::size_t e, int leaf, int crow, int k, std::unique_ptr<MappedSample>& bridged,
@@ -148,7 +152,8 @@ class ElementStage {
   const core::AdaptiveRun& run_;
   const core::Basis& basis_;
   const core::KdTree& tree_;
-  const core::CompiledBasis& cb_;
+  core::CompiledBasis& cb_;  // recompiled by fall_back_to_corners
+  const std::vector<bool>& infeasible_sample_;
   const std::vector<int>& leaves_;
   BuildReport& details_;
   cadinterp_build_report& rep_;  // details_.counts
@@ -228,6 +233,37 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
     ed.geometry_floor = geometry_floor(leaf, crow, terms, n, carried, ed);
     if (ed.error_estimate >= 0) ed.error_estimate += ed.geometry_floor;
   }
+}
+
+// A cubic element refused because one of its terms could not be mapped onto its canonical mesh
+// (its samples all feasible; typically a neighbour sample of §5.3 across a change the mapper
+// cannot bridge, two widths from the element) is built again on its corner fallback, as an
+// element whose B-splines reach a failed sample is (core::CompiledBasis::compile): its 2^K
+// corners, multilinear, which the linear build maps. Paper §4.2's locality holds there: the
+// element needs only its own samples. The basis is recompiled with those elements flagged (the
+// others keep their terms and records), and they are built on the build's threads again; one
+// whose corners do not all map stays refused, for a corner's reason.
+void ElementStage::fall_back_to_corners(std::vector<ElementTally>& tallies) {
+  if (!cubic_) return;
+  std::vector<bool> flags(leaves_.size(), false);
+  std::vector<std::size_t> again;
+  for (std::size_t e = 0; e < tallies.size(); ++e)
+    if (!tallies[e].ok && tallies[e].samples_feasible && cb_.element_cubic(static_cast<int>(e))) {
+      flags[e] = true;
+      again.push_back(e);
+    }
+  if (again.empty()) return;
+  const std::vector<double> lo = cb_.lower(), hi = cb_.upper();
+  cb_ = core::CompiledBasis::compile(basis_, lo, hi, &infeasible_sample_, true, &flags);
+  mapping::parallel_for(again.size(), exec_.concurrency(), [&](std::size_t i) {
+    const std::size_t e = again[i];
+    if (cb_.element_cubic(static_cast<int>(e))) return;  // no corner fallback: stays refused
+    poll();
+    ElementTally t;
+    build_element(e, t);
+    t.corner_fallback = true;
+    tallies[e] = std::move(t);
+  });
 }
 
 // The geometry's error at the element's own samples (format 1.3 ElementMeshes.geometry_floor),
@@ -390,6 +426,7 @@ void ElementStage::merge(std::size_t e, ElementTally& tally, const Sample*& fiel
     out_.infeasible.push_back(std::move(point));
     count_reason(details_.element_reasons, details_.other_infeasible_elements, why, {});
   }
+  if (tally.ok && tally.corner_fallback) ++details_.unmapped_fallbacks;
   if (tally.ok) {
     const int crow = run_.centre_row[static_cast<std::size_t>(leaves_[e])];
     if (!field_source) field_source = &problem_.sample(crow);
@@ -642,10 +679,12 @@ void ElementStage::compare_routes(int row, int crow, const MappedSample* viab,
 
 const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
                            MeshProblem& problem, const core::AdaptiveRun& run,
-                           const core::CompiledBasis& cb, const std::vector<int>& leaves,
-                           BuildReport& details, BuildResult& out,
+                           core::CompiledBasis& cb, const std::vector<bool>& infeasible_sample,
+                           const std::vector<int>& leaves, BuildReport& details, BuildResult& out,
                            std::vector<std::uint8_t>& element_ok) {
-  return ElementStage(host, opt, exec, problem, run, cb, leaves, details, out, element_ok).run();
+  return ElementStage(host, opt, exec, problem, run, cb, infeasible_sample, leaves, details, out,
+                      element_ok)
+      .run();
 }
 
 }  // namespace cadinterp::builder

@@ -19,8 +19,12 @@ namespace cadinterp::builder {
 /// centre or one of whose samples is infeasible, or with a term that can be neither mapped nor
 /// carried from a neighbour, is refused: element_ok[e] = 0 (element_ok holds one entry per
 /// leaf), counted in details.counts and details, the unmapped term named in out.infeasible.
-/// Fills out.neighbour. Returns the canonical sample of the first element built (its fields and
-/// regions describe the asset), or nullptr when every element was refused.
+/// A cubic element refused for a term that could not be mapped, whose samples are all feasible,
+/// is built again on its corner fallback: `cb` is recompiled from run.basis with those elements
+/// flagged (core::CompiledBasis::compile, `infeasible_sample` its flags per sample), counted in
+/// details.unmapped_fallbacks. Fills out.neighbour. Returns the canonical sample of the first
+/// element built (its fields and regions describe the asset), or nullptr when every element was
+/// refused.
 /// Elements (and, inside one, its canonical refinement) are built on exec.concurrency() threads;
 /// each fills its own record and counts, merged in element order, so the content, the counts
 /// and the reasons recorded do not depend on the thread count. Exceptions from a worker (e.g.
@@ -29,8 +33,8 @@ namespace cadinterp::builder {
 /// returns true, BuildCancelled is thrown once every worker has stopped at its next term.
 const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
                            MeshProblem& problem, const core::AdaptiveRun& run,
-                           const core::CompiledBasis& cb, const std::vector<int>& leaves,
-                           BuildReport& details, BuildResult& out,
+                           core::CompiledBasis& cb, const std::vector<bool>& infeasible_sample,
+                           const std::vector<int>& leaves, BuildReport& details, BuildResult& out,
                            std::vector<std::uint8_t>& element_ok);
 
 }  // namespace cadinterp::builder

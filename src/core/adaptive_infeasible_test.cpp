@@ -246,6 +246,42 @@ TEST(AdaptiveInfeasible, CompiledBasisFindsTheCornerFallbackElements) {
   }
 }
 
+// An element flagged for the fallback (the builder's: one of its terms cannot be mapped) takes
+// it although its terms are feasible, and only it: the other elements compile as without flags,
+// a linear basis has no fallback to take, and the flags must be one per element.
+TEST(AdaptiveInfeasible, FlaggedElementsTakeTheCornerFallback) {
+  const std::vector<double> lo{0, 0}, hi{1, 1};
+  const HostFunction smooth = [](const double* x, double* v) {
+    v[0] = host_value(x);
+    return true;
+  };
+  for (Degree g : {Degree::Cubic, Degree::Linear}) {
+    const AdaptiveResult s = adaptive_sample(2, 1, lo, hi, smooth, options(g, 120));
+    const CompiledBasis plain = CompiledBasis::compile(s.basis, lo, hi, &s.infeasible);
+    std::vector<bool> flags(static_cast<std::size_t>(plain.element_count()), false);
+    ASSERT_GT(flags.size(), 3u);
+    flags[1] = flags[3] = true;
+    const CompiledBasis cb = CompiledBasis::compile(s.basis, lo, hi, &s.infeasible, true, &flags);
+    ASSERT_EQ(cb.element_count(), plain.element_count());
+    for (int e = 0; e < cb.element_count(); ++e) {
+      const bool fallback = g == Degree::Cubic && flags[static_cast<std::size_t>(e)];
+      EXPECT_EQ(cb.element_on_corner_fallback(e), fallback) << "element " << e;
+      EXPECT_TRUE(cb.element_feasible(e));
+      int n = 0, m = 0;
+      const int* a = cb.element_samples(e, &n);
+      const int* b = plain.element_samples(e, &m);
+      if (fallback) {
+        EXPECT_EQ(n, 4);
+      } else {
+        EXPECT_EQ(std::vector<int>(a, a + n), std::vector<int>(b, b + m)) << "element " << e;
+      }
+    }
+    flags.pop_back();
+    EXPECT_THROW(CompiledBasis::compile(s.basis, lo, hi, &s.infeasible, true, &flags),
+                 std::invalid_argument);
+  }
+}
+
 TEST(AdaptiveInfeasible, CubicCornerFallbackKeepsTheFeasibleSpaceAccurately) {
   // A cubic element refused for a failed sample two widths away keeps its corners' multilinear
   // interpolant instead, tested against the tolerance like any element.

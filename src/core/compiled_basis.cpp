@@ -68,7 +68,8 @@ void eval_kernel(const KernelInput& in, const double* u, double* psi, double* dp
 
 CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<double>& lo,
                                      const std::vector<double>& hi,
-                                     const std::vector<bool>* infeasible, bool corner_fallback) {
+                                     const std::vector<bool>* infeasible, bool corner_fallback,
+                                     const std::vector<bool>* fallback) {
   const int K = basis.dim();
   if (static_cast<int>(lo.size()) != K || static_cast<int>(hi.size()) != K)
     throw std::invalid_argument("CompiledBasis::compile: domain bounds need K values");
@@ -77,6 +78,9 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
       throw std::invalid_argument("CompiledBasis::compile: empty or non-finite domain");
   if (infeasible && static_cast<int>(infeasible->size()) != basis.sample_count())
     throw std::invalid_argument("CompiledBasis::compile: one infeasibility flag per sample");
+  const std::vector<int>& leaves = basis.tree().leaves();
+  if (fallback && fallback->size() != leaves.size())
+    throw std::invalid_argument("CompiledBasis::compile: one fallback flag per element");
 
   CompiledBasis c;
   c.p_.K = K;
@@ -88,7 +92,6 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
 
   const KdTree& tree = basis.tree();
   std::vector<std::int32_t> elem_of_node(static_cast<std::size_t>(tree.node_count()), -1);
-  const std::vector<int>& leaves = tree.leaves();
   for (std::size_t e = 0; e < leaves.size(); ++e)
     elem_of_node[static_cast<std::size_t>(leaves[e])] = static_cast<std::int32_t>(e);
   for (int n = 0; n < tree.node_count(); ++n) {
@@ -109,12 +112,14 @@ CompiledBasis CompiledBasis::compile(const Basis& basis, const std::vector<doubl
       return (*infeasible)[static_cast<std::size_t>(k)];
     });
   };
-  for (int leaf : leaves) {
+  for (std::size_t e = 0; e < leaves.size(); ++e) {
+    const int leaf = leaves[e];
     ElementBasis eb = basis.element_basis(leaf);
     bool feasible = feasible_terms(eb);
+    const bool flagged = fallback && (*fallback)[e];
     ElementBasis corners;
-    if (!feasible && corner_fallback && basis.corner_fallback_basis(leaf, &corners) &&
-        feasible_terms(corners)) {
+    if ((!feasible || flagged) && (corner_fallback || flagged) &&
+        basis.corner_fallback_basis(leaf, &corners) && feasible_terms(corners)) {
       eb = std::move(corners);
       feasible = true;
     }

@@ -34,12 +34,17 @@ class CompiledBasis {
   /// infeasible sample is marked infeasible (never interpolated across), except that with
   /// `corner_fallback` a cubic element whose corners are all feasible gets its corner fallback
   /// (Basis::corner_fallback_basis) instead: the choice AdaptiveOptions::corner_fallback makes
-  /// during sampling. Throws std::invalid_argument for bounds that are not K finite increasing
-  /// pairs or a flag count other than the sample count.
+  /// during sampling. `fallback`, if given, has one flag per element (the tree's leaves in
+  /// order): a flagged cubic element whose corners are all feasible gets its corner fallback
+  /// although its own terms are feasible (the builder's choice for an element one of whose
+  /// terms cannot be mapped onto its canonical mesh). Throws std::invalid_argument for bounds
+  /// that are not K finite increasing pairs, an infeasibility flag count other than the sample
+  /// count or a fallback flag count other than the element count.
   static CompiledBasis compile(const Basis& basis, const std::vector<double>& lo,
                                const std::vector<double>& hi,
                                const std::vector<bool>* infeasible = nullptr,
-                               bool corner_fallback = true);
+                               bool corner_fallback = true,
+                               const std::vector<bool>* fallback = nullptr);
 
   int dim() const { return p_.K; }
   Degree degree() const { return p_.degree; }

@@ -252,6 +252,11 @@ void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_b
     std::fprintf(out, "    infeasible x%-5d (other messages)\n", st.other_infeasible_points);
   std::fprintf(out, "  elements           %d (infeasible %d, of which unmapped %d)\n", r.elements,
                r.infeasible_elements, st.unmapped_elements);
+  if (st.unmapped_fallbacks > 0)
+    std::fprintf(out,
+                 "  corner fallback    %d cubic elements multilinear on their corners: a term "
+                 "could not be mapped\n",
+                 st.unmapped_fallbacks);
   if (r.infeasible_points > 0)
     std::fprintf(out,
                  "  infeasible region  %d failed host evaluations; %d splits toward the boundary, "

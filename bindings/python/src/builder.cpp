@@ -242,6 +242,7 @@ py::object report_of(const cadinterp_builder* builder, const std::string& output
   stages["refined_vertices"] = st.refined_vertices;
   stages["maps"] = st.maps;
   stages["maps_again"] = st.maps_again;
+  stages["unmapped_fallbacks"] = st.unmapped_fallbacks;
   py::list reasons;
   for (int i = 0; i < st.infeasible_reasons; ++i) {
     const char* message = nullptr;

@@ -207,6 +207,7 @@ struct Row {
   int simulated = 0, simulate_failures = 0;  // --simulate-mapped: mapped terms
   int refined_elements = 0, refined_vertices = 0;  // canonical refinement
   int maps = 0, maps_again = 0;                    // the builder's map cache
+  int unmapped_fallbacks = 0;  // cubic elements on their corner fallback for an unmapped term
   double refinement_seconds = 0, elements_seconds = 0;
   std::string first_simulate_failure;
   double mesh_tets = 0, per_sample = 0;
@@ -277,6 +278,7 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   row.refined_vertices = b.stages.refined_vertices;
   row.maps = b.stages.maps;
   row.maps_again = b.stages.maps_again;
+  row.unmapped_fallbacks = b.stages.unmapped_fallbacks;
   row.refinement_seconds = b.stages.refinement_seconds;
   row.elements_seconds = b.stages.elements_seconds;
   row.stored = b.report.stored_meshes;
@@ -451,6 +453,11 @@ void print_table1(const std::vector<Row>& rows, bool simulate_mapped) {
           "         %-11s  build stages: refinement %.0f s, elements %.0f s; %d maps (%d again "
           "after the map cache dropped them)\n",
           r.model.c_str(), r.refinement_seconds, r.elements_seconds, r.maps, r.maps_again);
+  for (const Row& r : rows)
+    if (r.unmapped_fallbacks > 0)
+      std::printf(
+          "         %-11s  cubic elements on their corner fallback, a term not mapped: %d\n",
+          r.model.c_str(), r.unmapped_fallbacks);
   for (const Row& r : rows)
     if (r.refined_elements > 0)
       std::printf("         %-11s  canonical meshes refined: %d elements, %d vertices added\n",
