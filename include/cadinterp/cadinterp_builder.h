@@ -501,7 +501,8 @@ typedef struct cadinterp_build_stages {
   int maps_again;
   /** Cubic elements built on their corner fallback (their 2^K corners, multilinear) because
    * one of their terms could not be mapped onto their canonical mesh although every sample is
-   * feasible; refused elements before this counter existed. Not counted in unmapped_elements. */
+   * feasible. They are usable, so neither unmapped_elements nor the report's
+   * infeasible_elements counts them. */
   int unmapped_fallbacks;
 } cadinterp_build_stages;
 
