@@ -2,6 +2,8 @@
 // the C ABI, open the asset with the runtime, and compare with the host's own answer at 100
 // random points (geometry: symmetric Hausdorff of the boundaries relative to the bbox diagonal;
 // per-vertex fields relative to their range).
+// Over 800 lines because each case is a whole build with its own host, options and figures,
+// sharing only the helpers below; splitting them by theme would scatter those helpers.
 #include <gtest/gtest.h>
 #include <unistd.h>
 

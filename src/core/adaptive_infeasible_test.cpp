@@ -33,6 +33,12 @@ const HostFunction kHost = [](const double* x, double* v) {
   return true;
 };
 
+// The same function without the failing region.
+const HostFunction kSmooth = [](const double* x, double* v) {
+  v[0] = host_value(x);
+  return true;
+};
+
 // Fractions of a 100 x 100 grid of cell centres that the basis refuses and where the host fails.
 
 // Also the largest interpolation error at the grid points the basis answers and the host too.
@@ -235,12 +241,8 @@ TEST(AdaptiveInfeasible, CompiledBasisFindsTheCornerFallbackElements) {
     fallback += cb.element_on_corner_fallback(e) ? 1 : 0;
   }
   EXPECT_GT(fallback, 0);
-  const HostFunction smooth = [](const double* x, double* v) {
-    v[0] = host_value(x);
-    return true;
-  };
   for (Degree g : {Degree::Cubic, Degree::Linear}) {
-    const AdaptiveResult s = adaptive_sample(2, 1, lo, hi, smooth, options(g, 120));
+    const AdaptiveResult s = adaptive_sample(2, 1, lo, hi, kSmooth, options(g, 120));
     const CompiledBasis c = CompiledBasis::compile(s.basis, lo, hi, &s.infeasible);
     for (int e = 0; e < c.element_count(); ++e) EXPECT_FALSE(c.element_on_corner_fallback(e));
   }
@@ -251,12 +253,8 @@ TEST(AdaptiveInfeasible, CompiledBasisFindsTheCornerFallbackElements) {
 // a linear basis has no fallback to take, and the flags must be one per element.
 TEST(AdaptiveInfeasible, FlaggedElementsTakeTheCornerFallback) {
   const std::vector<double> lo{0, 0}, hi{1, 1};
-  const HostFunction smooth = [](const double* x, double* v) {
-    v[0] = host_value(x);
-    return true;
-  };
   for (Degree g : {Degree::Cubic, Degree::Linear}) {
-    const AdaptiveResult s = adaptive_sample(2, 1, lo, hi, smooth, options(g, 120));
+    const AdaptiveResult s = adaptive_sample(2, 1, lo, hi, kSmooth, options(g, 120));
     const CompiledBasis plain = CompiledBasis::compile(s.basis, lo, hi, &s.infeasible);
     std::vector<bool> flags(static_cast<std::size_t>(plain.element_count()), false);
     ASSERT_GT(flags.size(), 3u);
