@@ -363,7 +363,8 @@ CADINTERP_API cadinterp_status cadinterp_error_estimate(const cadinterp_asset* a
  * equal to the measured error at its centre and zero at the samples; on cubic assets the
  * largest measured error, constant over the element. The geometry's adds the element's error
  * at its own samples, where a mapped sample's stored mesh and the host's own mesh of it cut
- * the same surface with other triangles. Each field's adds the element's floor for it where
+ * the same surface with other triangles (on a cubic element it is at least that error: the
+ * largest measured error already holds it). Each field's adds the element's floor for it where
  * the element's samples were meshed apart and mapped: two meshes of one solid give a field
  * values that differ as much next to a sample as between samples. Calibrated on held-out
  * random points of analytic and OpenCASCADE hosts to bound the true error at about 90 % of

@@ -231,7 +231,9 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
   measure_error_model(e, leaf, crow, ed);
   if (!ed.error_model.empty()) {
     ed.geometry_floor = geometry_floor(leaf, crow, terms, n, carried, ed);
-    if (ed.error_estimate >= 0) ed.error_estimate += ed.geometry_floor;
+    if (ed.error_estimate >= 0)
+      ed.error_estimate = format::error_model_with_floor(
+          ed.error_estimate, cb_.element_cubic(static_cast<int>(e)), ed.geometry_floor);
   }
 }
 

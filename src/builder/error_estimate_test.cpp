@@ -187,12 +187,15 @@ TEST(ErrorEstimates, AssetsWithoutAModelOpenAndReportUnknown) {
   EXPECT_EQ(e, syn.content.elements[static_cast<std::size_t>(element)].error_estimate);
 }
 
-// A K = 2 synthetic asset with fields whose feasible elements all have the same error model
-// row, 0.01, for every quantity.
-format::SyntheticAsset modelled_synthetic() {
+// A K = 2 synthetic asset of `degree` with fields whose feasible elements all have the same
+// error model row, 0.01, for every quantity.
+format::SyntheticAsset modelled_synthetic(core::Degree degree = core::Degree::Linear) {
   format::SyntheticSpec s;
   s.K = 2;
+  s.degree = degree;
   s.fields = true;
+  s.tolerance = 1e-5;  // refined past the start grid: a cubic asset has cubic elements
+  s.max_samples = 60;
   format::SyntheticAsset syn = format::make_synthetic_asset(s);
   const std::size_t rows = 1 + syn.content.fields.size();
   for (format::ElementData& ed : syn.content.elements)
@@ -231,6 +234,46 @@ TEST(ErrorEstimates, GeometryFloorAddsToTheGeometryOnly) {
       EXPECT_GE(out[f], 0);
       EXPECT_NEAR(out[0], out[f] + 0.25, 1e-12) << "field " << f;
     }
+  }
+}
+
+// On a cubic element (off its corner fallback) the constant estimate is the largest error the
+// builder measured, against the host's own meshes, so it already holds the geometry floor's
+// difference of two meshes: the floor bounds it from below instead of adding to it. The same
+// asset's corner-fallback elements take the linear model, and add it.
+TEST(ErrorEstimates, GeometryFloorBoundsACubicConstantFromBelow) {
+  for (const double floor : {0.25, 0.001}) {
+    format::SyntheticAsset syn = modelled_synthetic(core::Degree::Cubic);
+    for (format::ElementData& ed : syn.content.elements)
+      if (ed.vertex_count > 0) ed.geometry_floor = floor;
+    const std::vector<std::uint8_t> bytes = format::write_asset(syn.content, {});
+    cadinterp_asset* raw = nullptr;
+    ASSERT_EQ(cadinterp_open_memory(bytes.data(), bytes.size(), 1, &raw), CADINTERP_OK);
+    const AssetPtr a(raw);
+    const int want = 1 + cadinterp_field_count(a.get());
+    ASSERT_GT(want, 1);
+    int cubic = 0;
+    for (int i = 0; i <= 8; ++i)
+      for (int j = 0; j <= 8; ++j) {
+        const double x[2] = {i / 8.0, j / 8.0};
+        int e = -1, feasible = 0, terms = 0, count = 0;
+        ASSERT_EQ(cadinterp_locate(a.get(), x, &e, &feasible), CADINTERP_OK);
+        if (!feasible) continue;
+        ASSERT_EQ(cadinterp_element_term_count(a.get(), e, &terms), CADINTERP_OK);
+        std::vector<double> out(static_cast<std::size_t>(want), -5);
+        ASSERT_EQ(cadinterp_error_estimates(a.get(), x, out.data(), want, &count), CADINTERP_OK);
+        // Every row is 0.01: the field's estimate is the geometry's before its floor.
+        const double shaped = out[1];
+        ASSERT_GE(shaped, 0);
+        // A corner-fallback element's terms are exactly its 2^K corners.
+        if (terms != 4) {
+          ++cubic;
+          EXPECT_NEAR(out[0], std::max(shaped, floor), 1e-12) << x[0] << ", " << x[1];
+        } else {
+          EXPECT_NEAR(out[0], shaped + floor, 1e-12) << x[0] << ", " << x[1];
+        }
+      }
+    EXPECT_GT(cubic, 0);
   }
 }
 

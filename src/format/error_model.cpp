@@ -31,12 +31,16 @@ double error_model_max(const double* row, int K) {
   return m;
 }
 
+double error_model_with_floor(double est, bool cubic, double floor) {
+  return cubic ? std::max(est, floor) : est + floor;
+}
+
 double error_model_reported(double est, bool cubic, bool geometry, double floor) {
   if (!(est >= 0)) return -1.0;
-  const double v = est * (cubic ? kErrorModelSafetyCubic : kErrorModelSafetyLinear);
+  const double v = error_model_with_floor(
+      est * (cubic ? kErrorModelSafetyCubic : kErrorModelSafetyLinear), cubic, floor);
   // Finite rows can still overflow here; the largest double says "no bound" and stays finite.
-  return std::min(geometry ? std::max(v + floor, kGeometryFloor) : v + floor,
-                  std::numeric_limits<double>::max());
+  return std::min(geometry ? std::max(v, kGeometryFloor) : v, std::numeric_limits<double>::max());
 }
 
 }  // namespace cadinterp::format

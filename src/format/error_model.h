@@ -45,10 +45,20 @@ double error_model_estimate(const double* row, int K, bool cubic, const double* 
 /// (linear: at the centre, or at the middle of the edges along the largest e_d).
 double error_model_max(const double* row, int K);
 
+/// An estimate `est` of a quantity with the element's floor for it (`floor`, measured: the
+/// geometry_floor, the geometry's error at the element's own samples, or the field's
+/// field_floors entry; SPEC.md "Error model"). Linear: est + floor, because the linear shape is
+/// 0 at the samples, where the floor is the whole error. Cubic (not on the corner fallback):
+/// max(est, floor), because the cubic constant is the largest error measured at the centre and
+/// the face centres, each against the host's own mesh there, so it already holds the difference
+/// of two meshes that the floor measures; adding it would count that difference twice (the
+/// OpenCASCADE cubic mount's geometry: median estimate / error 3.03 added, 1.83 as the larger;
+/// docs/error-estimates.md).
+double error_model_with_floor(double est, bool cubic, double floor);
+
 /// What cadinterp_error_estimates reports for an unscaled estimate `est` of a quantity: -1 when
-/// it is unknown (negative), else est times the degree's safety factor plus the element's floor
-/// for the quantity (`floor`, measured, so not scaled: the geometry_floor, the geometry's error
-/// at the element's own samples, or the field's field_floors entry; SPEC.md "Error model"), the
+/// it is unknown (negative), else est times the degree's safety factor, with the element's floor
+/// for the quantity (error_model_with_floor; the floor is measured, so not scaled), the
 /// geometry's no less than kGeometryFloor.
 double error_model_reported(double est, bool cubic, bool geometry, double floor);
 

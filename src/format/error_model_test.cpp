@@ -116,7 +116,8 @@ TEST(ErrorModel, LinearShapeBoundsSeparatedCurvaturesAndSaddles) {
 
 // Unknown centre: unknown estimate; unmeasured directions take the centre error; no direction
 // error: the centre error spread evenly, zero at the corners. The reported value adds the
-// quantity's floor.
+// quantity's floor to a linear estimate; a cubic constant already holds it, so the floor only
+// bounds it from below.
 TEST(ErrorModel, LinearRowsWithMissingOrZeroEntries) {
   const double t[2] = {0.5, 0.5}, corner[2] = {0, 1}, edge[2] = {0.5, 0};
   const double unknown[3] = {-1, 0.1, 0.1}, zero_dirs[3] = {0.2, 0, 0},
@@ -133,7 +134,11 @@ TEST(ErrorModel, LinearRowsWithMissingOrZeroEntries) {
                    0.1 * kErrorModelSafetyLinear + 0.5);
   EXPECT_DOUBLE_EQ(error_model_reported(0.1, false, true, 0.5),
                    0.1 * kErrorModelSafetyLinear + 0.5);
-  EXPECT_DOUBLE_EQ(error_model_reported(0.1, true, false, 0.5), 0.1 * kErrorModelSafetyCubic + 0.5);
+  EXPECT_DOUBLE_EQ(error_model_reported(0.1, true, false, 0.5), 0.5);
+  EXPECT_DOUBLE_EQ(error_model_reported(0.1, true, true, 0.05), 0.1 * kErrorModelSafetyCubic);
+  EXPECT_DOUBLE_EQ(error_model_with_floor(0.1, false, 0.05), 0.1 + 0.05);
+  EXPECT_DOUBLE_EQ(error_model_with_floor(0.1, true, 0.05), 0.1);
+  EXPECT_DOUBLE_EQ(error_model_with_floor(0.1, true, 0.5), 0.5);
   EXPECT_DOUBLE_EQ(error_model_reported(0.0, false, true, 0.0), kGeometryFloor);
   EXPECT_EQ(error_model_reported(0.0, false, false, 0.0), 0.0);
   EXPECT_LT(error_model_reported(-1.0, false, false, 0.5), 0) << "unknown stays unknown";
