@@ -239,8 +239,9 @@ TEST(ErrorEstimates, GeometryFloorAddsToTheGeometryOnly) {
 
 // On a cubic element (off its corner fallback) the constant estimate is the largest error the
 // builder measured, against the host's own meshes, so it already holds the geometry floor's
-// difference of two meshes: the floor bounds it from below instead of adding to it. The same
-// asset's corner-fallback elements take the linear model, and add it.
+// difference of two meshes: the floor bounds it from below instead of adding to it. A
+// corner-fallback element takes the linear model and adds it (this synthetic asset may have
+// none; CornerFallbackElementsEstimateAsLinearOnes builds some).
 TEST(ErrorEstimates, GeometryFloorBoundsACubicConstantFromBelow) {
   for (const double floor : {0.25, 0.001}) {
     format::SyntheticAsset syn = modelled_synthetic(core::Degree::Cubic);

@@ -52,7 +52,7 @@ double error_model_max(const double* row, int K);
 /// max(est, floor), because the cubic constant is the largest error measured at the centre and
 /// the face centres, each against the host's own mesh there, so it already holds the difference
 /// of two meshes that the floor measures; adding it would count that difference twice (the
-/// OpenCASCADE cubic mount's geometry: median estimate / error 3.03 added, 1.83 as the larger;
+/// OpenCASCADE cubic mount's geometry: median estimate / error 3.04 added, 1.85 as the larger;
 /// docs/error-estimates.md).
 double error_model_with_floor(double est, bool cubic, double floor);
 
