@@ -60,6 +60,12 @@ std::size_t default_map_cache_bytes() {
   return least;
 }
 
+format::WriteOptions asset_write_options(const BuildOptions& options) {
+  format::WriteOptions w;
+  w.position_max_abs_error = options.position_max_abs_error;
+  return w;
+}
+
 const Mapper& default_mapper() {
   static const mapping::MeshMapper mesh;
   return mesh;

@@ -76,6 +76,12 @@ struct BuildOptions {
   /// store_path: a build session opens it when it is created, so that a bad store fails there.
   SampleStore* store = nullptr;
   double position_max_abs_error = 0.0;
+  /// Each element's meshes encoded as soon as the element is built (format::encode_element_meshes
+  /// with asset_write_options(*this)) and its arrays released, so that a build holds its
+  /// elements compressed: the raw arrays of a cubic five-parameter CAD model are several times
+  /// its asset's size. The asset written is the same, byte for byte. False keeps the arrays in
+  /// BuildResult::content (for callers that read them).
+  bool encode_elements = true;
   /// Called after every delivered sample; returns true to cancel.
   std::function<bool(const cadinterp_progress&)> progress;
   const Mapper* mapper = nullptr;  ///< nullptr: default_mapper()
@@ -181,6 +187,11 @@ struct BuildResult {
   BuildReport details;
   NeighbourTransferStats neighbour;  ///< cubic builds only
 };
+
+/// The options a build's asset is written with (format::write_asset): the default codecs and
+/// the build's position_max_abs_error. Elements encoded as built (BuildOptions::encode_elements)
+/// are encoded with these, and write_asset refuses them under any others.
+format::WriteOptions asset_write_options(const BuildOptions& options);
 
 /// The mapper a build uses unless BuildOptions::mapper says otherwise: the mesh mapper of paper
 /// §6 (src/mapping). Samples of equal combinatorics are blended vertex by vertex without calling

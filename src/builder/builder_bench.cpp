@@ -20,8 +20,10 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "analytic_host.h"
+#include "builder/build.h"
 #include "builder/builder_e2e.h"
 #include "cadinterp/cadinterp_builder.h"
 
@@ -124,6 +126,46 @@ void BM_Speedup(benchmark::State& state) {
   state.counters["elements_s"] = t.outcome.stages.elements_seconds;
 }
 
+// What a build holds of its elements (BuildOptions::encode_elements): each element encoded as
+// it is built, against the reference of the same build holding its raw arrays, in the same run:
+//   raw_MB, held_MB = the elements' bytes either way; held_over_raw (target: < 0.5);
+//   asset_MB = the asset's size (its blobs deduplicated).
+// Both builds write the same asset byte for byte (error: otherwise).
+//   build/release/src/builder/builder_bench --benchmark_filter=ElementMemory
+void BM_ElementMemory(benchmark::State& state) {
+  const Model& m = model(static_cast<int>(state.range(0)));
+  const mesh::Host host(m.host);
+  builder::BuildOptions o;
+  o.degree = m.options.degree == 3 ? core::Degree::Cubic : core::Degree::Linear;
+  o.geometry_tolerance = m.options.geometry_tolerance;
+  o.field_tolerance = m.options.field_tolerance;
+  o.max_samples = m.options.max_samples;
+  o.threads = 2;
+  double raw = 0, held = 0, asset = 0;
+  for (auto _ : state) {
+    o.encode_elements = false;
+    const builder::BuildResult r = builder::build(host, o);
+    o.encode_elements = true;
+    const builder::BuildResult h = builder::build(host, o);
+    raw = held = 0;
+    for (const format::ElementData& ed : r.content.elements)
+      raw += static_cast<double>(format::element_array_bytes(ed));
+    for (const format::ElementData& ed : h.content.elements)
+      held += ed.encoded ? static_cast<double>(ed.encoded->bytes()) : 0.0;
+    const format::WriteOptions w = builder::asset_write_options(o);
+    const std::vector<std::uint8_t> bytes = format::write_asset(h.content, w);
+    if (bytes != format::write_asset(r.content, w)) {
+      state.SkipWithError("the encoded elements write another asset");
+      return;
+    }
+    asset = static_cast<double>(bytes.size());
+  }
+  state.counters["raw_MB"] = raw / 1e6;
+  state.counters["held_MB"] = held / 1e6;
+  state.counters["held_over_raw"] = held / raw;
+  state.counters["asset_MB"] = asset / 1e6;
+}
+
 // range(0): 0 bracket, 1 refined, 2 cubic; range(1): threads.
 BENCHMARK(BM_Build)
     ->ArgNames({"model", "threads"})
@@ -132,6 +174,14 @@ BENCHMARK(BM_Build)
     ->UseRealTime()
     ->Iterations(1);
 BENCHMARK(BM_Speedup)
+    ->ArgName("model")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(1);
+BENCHMARK(BM_ElementMemory)
     ->ArgName("model")
     ->Arg(0)
     ->Arg(1)

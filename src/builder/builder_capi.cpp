@@ -113,9 +113,8 @@ cadinterp_status end_run(cadinterp_builder& b, cadinterp::builder::BuildSession&
     CADINTERP_CATCH_BEGIN
     cadinterp::builder::BuildResult r = session.finish(b.details);
     const auto t0 = std::chrono::steady_clock::now();
-    cadinterp::format::WriteOptions w;
-    w.position_max_abs_error = b.options.position_max_abs_error;
-    cadinterp::format::write_asset_file(r.content, w, path);
+    cadinterp::format::write_asset_file(r.content,
+                                        cadinterp::builder::asset_write_options(b.options), path);
     b.details.counts.asset_bytes = std::filesystem::file_size(path);
     b.write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     b.details.counts.wall_seconds += b.write_seconds;

@@ -412,6 +412,7 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
   o.threads = 1;
   o.neighbour_transfer = builder::NeighbourTransfer::Always;
   o.measure_neighbour_transfer = true;
+  o.encode_elements = false;  // the positions are compared below
   const builder::BuildResult one = builder::build(fold, o);
   const builder::NeighbourTransferStats& st = one.neighbour;
   std::printf(
@@ -447,6 +448,62 @@ TEST(EndToEnd, CubicNeighbourSamplesGoThroughASharedSample) {
   EXPECT_TRUE(differs);
 }
 
+// BuildOptions::encode_elements: each element is held encoded from the moment it is built, its
+// arrays released, and the asset is the one its arrays give, byte for byte (positions lossy
+// here, so the build's write options reach the encoder), whether assembled in memory or written
+// to a file part by part. Under other write options the writer refuses the encoded elements.
+// A cubic foldplate across its topology change, whose elements hold mapped terms.
+TEST(EndToEnd, ElementsEncodedAsBuiltWriteTheSameAsset) {
+  const cadinterp_host* h = host("foldplate", "edge=25");
+  ASSERT_NE(h, nullptr);
+  const mesh::Host fold(*h);
+  builder::BuildOptions o;
+  o.degree = core::Degree::Cubic;
+  o.max_samples = 24;
+  o.threads = 2;
+  o.position_max_abs_error = 1e-5;
+  o.encode_elements = false;
+  const builder::BuildResult raw = builder::build(fold, o);
+  o.encode_elements = true;
+  const builder::BuildResult held = builder::build(fold, o);
+  const format::WriteOptions w = builder::asset_write_options(o);
+  EXPECT_EQ(w.position_max_abs_error, 1e-5);
+  ASSERT_EQ(held.content.elements.size(), raw.content.elements.size());
+  std::size_t raw_bytes = 0, held_bytes = 0;
+  int encoded = 0;
+  for (std::size_t e = 0; e < raw.content.elements.size(); ++e) {
+    SCOPED_TRACE(e);
+    const format::ElementData& a = raw.content.elements[e];
+    const format::ElementData& b = held.content.elements[e];
+    EXPECT_EQ(b.vertex_count, a.vertex_count);
+    EXPECT_EQ(b.error_model, a.error_model);
+    EXPECT_EQ(b.geometry_floor, a.geometry_floor);
+    if (a.vertex_count == 0) {
+      EXPECT_FALSE(b.encoded);
+      continue;
+    }
+    ASSERT_TRUE(b.encoded);
+    ++encoded;
+    EXPECT_EQ(format::element_array_bytes(b), 0u);
+    EXPECT_EQ(b.encoded->positions.size(), a.positions.size());
+    raw_bytes += format::element_array_bytes(a);
+    held_bytes += b.encoded->bytes();
+  }
+  EXPECT_GT(encoded, 0);
+  EXPECT_LT(held_bytes, raw_bytes);
+  std::printf("[ figures ] %d elements: %zu bytes of arrays held as %zu encoded (%.2f)\n", encoded,
+              raw_bytes, held_bytes,
+              static_cast<double>(held_bytes) / static_cast<double>(raw_bytes));
+  const std::vector<std::uint8_t> bytes = format::write_asset(raw.content, w);
+  EXPECT_EQ(format::write_asset(held.content, w), bytes);
+  const std::string path = temp_path("foldplate_encoded.cadi");
+  format::write_asset_file(held.content, w, path);
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_EQ(std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {}), bytes);
+  std::filesystem::remove(path);
+  EXPECT_THROW(format::write_asset(held.content, format::WriteOptions{}), format::FormatError);
+}
+
 // A cubic element one of whose neighbour terms (§5.3) cannot be mapped onto its canonical mesh
 // is built on its corner fallback instead of being refused: its corners' multilinear blend,
 // which needs only its own samples (§4.2's locality). The cubic foldplate at its start grid (no
@@ -463,6 +520,7 @@ TEST(EndToEnd, AnUnmappedCubicTermLeavesItsElementOnItsCorners) {
   o.max_samples = 2;
   o.threads = 2;
   o.neighbour_transfer = builder::NeighbourTransfer::Direct;
+  o.encode_elements = false;  // the positions are compared below
   const builder::BuildResult one = builder::build(fold, o);
   ASSERT_EQ(one.report.infeasible_elements, 0);
   EXPECT_EQ(one.details.unmapped_fallbacks, 0);

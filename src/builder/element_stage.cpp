@@ -31,6 +31,26 @@ std::vector<float> to_float(const std::vector<double>& v) {
   return std::vector<float>(v.begin(), v.end());
 }
 
+template <typename T>
+void release(std::vector<T>& v) {
+  std::vector<T>().swap(v);
+}
+
+// BuildOptions::encode_elements: the element's meshes encoded now, on the thread that built it,
+// and its arrays released, so that the stage holds every element compressed: a cubic element of
+// a four- or five-parameter model stores hundreds of terms of a float per vertex coordinate and
+// field value (src/builder/README.md, "Memory"). The writer stores these blobs as they are, the
+// same bytes it would encode from the arrays.
+void encode_and_release(format::ElementData& ed, const format::WriteOptions& w) {
+  ed.encoded = std::make_shared<const format::EncodedMeshes>(format::encode_element_meshes(ed, w));
+  release(ed.tets);
+  release(ed.triangles);
+  release(ed.triangle_tags);
+  release(ed.canonical);
+  release(ed.positions);
+  release(ed.fields);
+}
+
 // Per element: canonical mesh = the host at its centre (§4.2); each term's sample mapped into
 // it. An element whose centre failed or whose terms cannot be mapped is infeasible.
 //
@@ -235,6 +255,7 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
       ed.error_estimate = format::error_model_with_floor(
           ed.error_estimate, cb_.element_cubic(static_cast<int>(e)), ed.geometry_floor);
   }
+  if (opt_.encode_elements) encode_and_release(ed, asset_write_options(opt_));
 }
 
 // A cubic element refused because one of its terms could not be mapped onto its canonical mesh

@@ -557,6 +557,65 @@ TEST(Asset, WriterRejectsInconsistentContent) {
   EXPECT_THROW(write_asset(c, {}), FormatError);
 }
 
+// Elements encoded ahead of writing (encode_element_meshes, as the builder holds them) give the
+// asset their arrays give, byte for byte, with every codec and lossy or not; write_asset refuses
+// them under other options than they were encoded with, or with a term missing, and
+// encode_element_meshes refuses inconsistent arrays.
+TEST(Asset, ElementsEncodedAheadWriteTheSameBytes) {
+  for (Codec codec : {Codec::Raw, Codec::QuantDeltaZstd, Codec::Meshopt, Codec::Draco}) {
+    SCOPED_TRACE(codec_name(codec));
+    WriteOptions o;
+    o.float_codec = codec;
+    o.index_codec = codec;
+    o.position_max_abs_error = codec == Codec::Raw ? 0.0 : 1e-4;
+    o.field_max_abs_error = o.position_max_abs_error;
+    AssetContent c = small_asset().content;
+    std::size_t raw = 0, held = 0;
+    for (ElementData& ed : c.elements) {
+      if (ed.vertex_count == 0) continue;
+      raw += element_array_bytes(ed);
+      ed.encoded = std::make_shared<const EncodedMeshes>(encode_element_meshes(ed, o));
+      held += ed.encoded->bytes();
+      ed.positions.clear();
+      ed.fields.clear();
+      ed.canonical.clear();
+      ed.tets.clear();
+    }
+    EXPECT_EQ(write_asset(c, o), write_asset(small_asset().content, o));
+    if (codec != Codec::Raw) {
+      EXPECT_LT(held, raw);
+    }
+    WriteOptions other = o;
+    other.position_max_abs_error = 2e-4;
+    try {
+      write_asset(c, other);
+      ADD_FAILURE() << "other options accepted";
+    } catch (const FormatError& e) {
+      EXPECT_NE(std::string(e.what()).find("encoded with other write options"), std::string::npos)
+          << e.what();
+    }
+    std::size_t e = 0;
+    while (c.elements[e].vertex_count == 0) ++e;
+    auto fewer = std::make_shared<EncodedMeshes>(*c.elements[e].encoded);
+    fewer->positions.pop_back();
+    c.elements[e].encoded = fewer;
+    EXPECT_THROW(write_asset(c, o), FormatError);
+  }
+  const ElementData& good = small_asset().content.elements[0];
+  ASSERT_GT(good.vertex_count, 0u);
+  ASSERT_FALSE(good.fields.empty());
+  EXPECT_NO_THROW(encode_element_meshes(good, {}));
+  ElementData ed = good;
+  ed.positions[0].pop_back();
+  EXPECT_THROW(encode_element_meshes(ed, {}), FormatError);
+  ed = good;
+  ed.fields.pop_back();
+  EXPECT_THROW(encode_element_meshes(ed, {}), FormatError);
+  ed = good;
+  ed.encoded = std::make_shared<const EncodedMeshes>(encode_element_meshes(ed, {}));
+  EXPECT_THROW(encode_element_meshes(ed, {}), FormatError) << "encoded twice";
+}
+
 // The geometry floor (format 1.3, error_model.h): written with an error model, read back, and a
 // floor that is negative, NaN or without a model is refused by the writer and, edited into a
 // file, by the reader.

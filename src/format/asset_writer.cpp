@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <unordered_map>
+#include <utility>
 
 #include "cadinterp_generated.h"
 
@@ -115,22 +116,18 @@ FieldSizes check_content(const AssetContent& c) {
   return sizes;
 }
 
-// Checks the array sizes of element e's meshes (nv vertices, `terms` basis terms).
-void check_element_arrays(const ElementData& ed, int e, int terms, const FieldSizes& sizes) {
-  const std::size_t nv = ed.vertex_count;
-  const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
-  if (ed.tets.size() % 4 || ed.triangles.size() % 3 || ed.triangle_tags.size() != ntri)
-    bad("element " + std::to_string(e) + ": topology array sizes");
-  if (ed.canonical.size() != nv * 3) bad("element " + std::to_string(e) + ": canonical size");
-  if (static_cast<int>(ed.positions.size()) != terms)
+// Checks element e's encoded meshes against the asset: one position array per basis term, and
+// one field array per term of the descriptors' size (none when they hold no values), encoded
+// with the options the asset is written with.
+void check_element_meshes(const EncodedMeshes& m, std::size_t nv, int e, int terms,
+                          const FieldSizes& sizes, const WriteOptions& o) {
+  if (!(m.options == o)) bad("element " + std::to_string(e) + ": encoded with other write options");
+  if (static_cast<int>(m.positions.size()) != terms)
     bad("element " + std::to_string(e) + ": one position array per term needed");
-  const std::size_t field_size = nv * sizes.per_vertex + ntet * sizes.per_tet;
-  if (!(ed.fields.empty() && field_size == 0) && static_cast<int>(ed.fields.size()) != terms)
-    bad("element " + std::to_string(e) + ": one field array per term needed");
-  for (const auto& a : ed.positions)
-    if (a.size() != nv * 3) bad("element " + std::to_string(e) + ": position array size");
-  for (const auto& a : ed.fields)
-    if (a.size() != field_size) bad("element " + std::to_string(e) + ": field array size");
+  const std::size_t field_size = nv * sizes.per_vertex + m.tet_count * sizes.per_tet;
+  if (!(m.fields.empty() && field_size == 0) &&
+      (static_cast<int>(m.fields.size()) != terms || m.field_values != field_size))
+    bad("element " + std::to_string(e) + ": one field array per term of the fields' size needed");
 }
 
 // Checks element e's error model: empty (and no floors), or (1 + #fields) by (K + 1) finite
@@ -154,6 +151,52 @@ void check_error_model(const AssetContent& c, const ElementData& ed, int e) {
     bad("element " + std::to_string(e) + ": geometry floor not finite and >= 0");
 }
 
+// Element `who`'s meshes encoded as write_asset stores them (encode_element_meshes).
+EncodedMeshes encode_meshes(const ElementData& ed, const WriteOptions& o, const std::string& who) {
+  if (ed.encoded) bad(who + ": already encoded");
+  const std::size_t nv = ed.vertex_count;
+  const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
+  if (nv == 0 || ed.tets.size() % 4 || ed.triangles.size() % 3 || ed.triangle_tags.size() != ntri)
+    bad(who + ": topology array sizes");
+  if (ed.canonical.size() != nv * 3) bad(who + ": canonical size");
+  for (const auto& a : ed.positions)
+    if (a.size() != nv * 3) bad(who + ": position array size");
+  if (!ed.fields.empty() && ed.fields.size() != ed.positions.size())
+    bad(who + ": one field array per position array needed");
+  for (const auto& a : ed.fields)
+    if (a.size() != ed.fields.front().size()) bad(who + ": field array size");
+  EncodedMeshes m;
+  m.options = o;
+  m.tet_count = static_cast<std::uint32_t>(ntet);
+  m.triangle_count = static_cast<std::uint32_t>(ntri);
+  m.field_values = ed.fields.empty() ? 0 : ed.fields.front().size();
+  const FloatParams pos_params{o.position_max_abs_error};
+  const FloatParams field_params{o.field_max_abs_error};
+  // Draco has no tet codec (SPEC.md): tets fall back to the fast codec.
+  const Codec tet_codec = o.index_codec == Codec::Draco ? Codec::QuantDeltaZstd : o.index_codec;
+  const auto vc = static_cast<std::uint32_t>(nv);
+  // Held until the asset is written, so at its size: an encoder may reserve its worst case
+  // (zstd's bound, above the raw size) and keep that capacity.
+  auto blob = [](Codec c, std::vector<std::uint8_t> bytes) {
+    bytes.shrink_to_fit();
+    return EncodedBlob{c, std::move(bytes)};
+  };
+  m.tets = blob(tet_codec, encode_indices(tet_codec, ed.tets.data(), ntet, 4, vc));
+  m.triangles =
+      blob(o.index_codec, encode_indices(o.index_codec, ed.triangles.data(), ntri, 3, vc));
+  m.triangle_tags.bytes.resize(ntri * 4);
+  if (ntri) std::memcpy(m.triangle_tags.bytes.data(), ed.triangle_tags.data(), ntri * 4);
+  m.canonical = blob(Codec::Raw,
+                     encode_floats(Codec::Raw, ed.canonical.data(), nv, 3, nullptr, FloatParams{}));
+  for (const auto& a : ed.positions)
+    m.positions.push_back(blob(o.float_codec, encode_floats(o.float_codec, a.data(), nv, 3,
+                                                            ed.canonical.data(), pos_params)));
+  for (const auto& a : ed.fields)
+    m.fields.push_back(blob(
+        o.float_codec, encode_floats(o.float_codec, a.data(), a.size(), 1, nullptr, field_params)));
+  return m;
+}
+
 // Encodes element e's meshes into the blob section and returns its index table; an element
 // without meshes (only an infeasible one may lack them) stores its error estimate alone.
 flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuilder& fbb,
@@ -164,7 +207,6 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
   int terms = 0;
   c.basis->element_samples(e, &terms);
   const std::size_t nv = ed.vertex_count;
-  const std::size_t ntet = ed.tets.size() / 4, ntri = ed.triangles.size() / 3;
   if (nv == 0) {
     if (c.basis->element_feasible(e))
       bad("feasible element " + std::to_string(e) + " without meshes");
@@ -172,32 +214,17 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
     eb.add_error_estimate(ed.error_estimate);
     return eb.Finish();
   }
-  check_element_arrays(ed, e, terms, sizes);
+  EncodedMeshes local;
+  if (!ed.encoded) local = encode_meshes(ed, o, "element " + std::to_string(e));
+  const EncodedMeshes& m = ed.encoded ? *ed.encoded : local;
+  check_element_meshes(m, nv, e, terms, sizes, o);
   check_error_model(c, ed, e);
-
-  const FloatParams pos_params{o.position_max_abs_error};
-  const FloatParams field_params{o.field_max_abs_error};
-  const Codec tri_codec = o.index_codec;
-  // Draco has no tet codec (SPEC.md): tets fall back to the fast codec.
-  const Codec tet_codec = o.index_codec == Codec::Draco ? Codec::QuantDeltaZstd : o.index_codec;
-  const auto vc = static_cast<std::uint32_t>(nv);
-  const fb::BlobRef tets =
-      sink.add(encode_indices(tet_codec, ed.tets.data(), ntet, 4, vc), tet_codec);
-  const fb::BlobRef tris =
-      sink.add(encode_indices(tri_codec, ed.triangles.data(), ntri, 3, vc), tri_codec);
-  std::vector<std::uint8_t> tag_bytes(ntri * 4);
-  if (ntri) std::memcpy(tag_bytes.data(), ed.triangle_tags.data(), tag_bytes.size());
-  const fb::BlobRef tags = sink.add(tag_bytes, Codec::Raw);
-  const fb::BlobRef canonical = sink.add(
-      encode_floats(Codec::Raw, ed.canonical.data(), nv, 3, nullptr, FloatParams{}), Codec::Raw);
+  auto add = [&](const EncodedBlob& b) { return sink.add(b.bytes, b.codec); };
+  const fb::BlobRef tets = add(m.tets), tris = add(m.triangles), tags = add(m.triangle_tags),
+                    canonical = add(m.canonical);
   std::vector<fb::BlobRef> pos, fields;
-  for (const auto& a : ed.positions)
-    pos.push_back(
-        sink.add(encode_floats(o.float_codec, a.data(), nv, 3, ed.canonical.data(), pos_params),
-                 o.float_codec));
-  for (const auto& a : ed.fields)
-    fields.push_back(sink.add(
-        encode_floats(o.float_codec, a.data(), a.size(), 1, nullptr, field_params), o.float_codec));
+  for (const EncodedBlob& b : m.positions) pos.push_back(add(b));
+  for (const EncodedBlob& b : m.fields) fields.push_back(add(b));
   const auto pos_v = fbb.CreateVectorOfStructs(pos);
   const auto field_v = fbb.CreateVectorOfStructs(fields);
   flatbuffers::Offset<flatbuffers::Vector<double>> model_v;
@@ -205,9 +232,9 @@ flatbuffers::Offset<fb::ElementMeshes> write_element(flatbuffers::FlatBufferBuil
   flatbuffers::Offset<flatbuffers::Vector<double>> floors_v;
   if (!ed.field_floors.empty()) floors_v = fbb.CreateVector(ed.field_floors);
   fb::ElementMeshesBuilder eb(fbb);
-  eb.add_vertex_count(vc);
-  eb.add_tet_count(static_cast<std::uint32_t>(ntet));
-  eb.add_triangle_count(static_cast<std::uint32_t>(ntri));
+  eb.add_vertex_count(static_cast<std::uint32_t>(nv));
+  eb.add_tet_count(m.tet_count);
+  eb.add_triangle_count(m.triangle_count);
   eb.add_tets(&tets);
   eb.add_triangles(&tris);
   eb.add_triangle_tags(&tags);
@@ -286,42 +313,72 @@ void write_index(flatbuffers::FlatBufferBuilder& fbb, const AssetContent& c, con
   fb::FinishAssetBuffer(fbb, asset);
 }
 
-// The file: header, the finished index, then the blob section (SPEC.md, "Layout").
-std::vector<std::uint8_t> assemble_file(const flatbuffers::FlatBufferBuilder& fbb,
-                                        const std::vector<std::uint8_t>& section,
-                                        std::uint16_t minor) {
+// The file's header (SPEC.md, "Layout") for the finished index `fbb` and a blob section of
+// `section_size` bytes, which follow it in that order.
+std::vector<std::uint8_t> file_header(const flatbuffers::FlatBufferBuilder& fbb,
+                                      std::size_t section_size, std::uint16_t minor) {
   const std::uint64_t index_offset = kHeaderSize;  // 48: 8-aligned
-  std::vector<std::uint8_t> file(kHeaderSize + fbb.GetSize() + section.size(), 0);
-  std::memcpy(file.data() + kHeaderSize, fbb.GetBufferPointer(), fbb.GetSize());
-  if (!section.empty())
-    std::memcpy(file.data() + kHeaderSize + fbb.GetSize(), section.data(), section.size());
-  std::memcpy(file.data(), kMagic, sizeof kMagic);
-  put_le(file, 8, kFormatMajor, 2);
+  std::vector<std::uint8_t> header(kHeaderSize, 0);
+  std::memcpy(header.data(), kMagic, sizeof kMagic);
+  put_le(header, 8, kFormatMajor, 2);
   // The lowest minor whose schema holds what this file uses (SPEC.md, "Versions and features"):
   // 1.0 readers keep opening assets without field units, and every reader from 1.2 on opens
   // those with outputs (an optional addition). No feature a reader must implement exists beyond
   // 1.0 (the list is empty), so it never writes required_features.
-  put_le(file, 10, minor, 2);
-  put_le(file, 12, kHeaderSize, 4);
-  put_le(file, 16, file.size(), 8);
-  put_le(file, 24, index_offset, 8);
-  put_le(file, 32, fbb.GetSize(), 8);
-  put_le(file, 40, XXH64(fbb.GetBufferPointer(), fbb.GetSize(), 0), 8);
-  return file;
+  put_le(header, 10, minor, 2);
+  put_le(header, 12, kHeaderSize, 4);
+  put_le(header, 16, kHeaderSize + fbb.GetSize() + section_size, 8);
+  put_le(header, 24, index_offset, 8);
+  put_le(header, 32, fbb.GetSize(), 8);
+  put_le(header, 40, XXH64(fbb.GetBufferPointer(), fbb.GetSize(), 0), 8);
+  return header;
+}
+
+// The file's three parts: the header, the finished index and the blob section.
+struct FileParts {
+  flatbuffers::FlatBufferBuilder fbb{1 << 16};
+  std::vector<std::uint8_t> section, header;
+};
+
+void serialize(const AssetContent& c, const WriteOptions& o, FileParts& f) {
+  const FieldSizes sizes = check_content(c);
+  BlobSink sink(f.section);
+  std::vector<flatbuffers::Offset<fb::ElementMeshes>> elements;
+  for (int e = 0; e < c.basis->element_count(); ++e)
+    elements.push_back(write_element(f.fbb, sink, c, e, o, sizes));
+  write_index(f.fbb, c, o, elements);
+  f.header = file_header(f.fbb, f.section.size(), file_minor(c));
 }
 
 }  // namespace
 
+std::size_t EncodedMeshes::bytes() const {
+  std::size_t n = tets.bytes.size() + triangles.bytes.size() + triangle_tags.bytes.size() +
+                  canonical.bytes.size();
+  for (const EncodedBlob& b : positions) n += b.bytes.size();
+  for (const EncodedBlob& b : fields) n += b.bytes.size();
+  return n;
+}
+
+std::size_t element_array_bytes(const ElementData& ed) {
+  std::size_t n =
+      4 * (ed.tets.size() + ed.triangles.size() + ed.triangle_tags.size() + ed.canonical.size());
+  for (const auto& a : ed.positions) n += 4 * a.size();
+  for (const auto& a : ed.fields) n += 4 * a.size();
+  return n;
+}
+
+EncodedMeshes encode_element_meshes(const ElementData& ed, const WriteOptions& o) {
+  return encode_meshes(ed, o, "element");
+}
+
 std::vector<std::uint8_t> write_asset(const AssetContent& c, const WriteOptions& o) {
-  const FieldSizes sizes = check_content(c);
-  std::vector<std::uint8_t> section;
-  BlobSink sink(section);
-  flatbuffers::FlatBufferBuilder fbb(1 << 16);
-  std::vector<flatbuffers::Offset<fb::ElementMeshes>> elements;
-  for (int e = 0; e < c.basis->element_count(); ++e)
-    elements.push_back(write_element(fbb, sink, c, e, o, sizes));
-  write_index(fbb, c, o, elements);
-  return assemble_file(fbb, section, file_minor(c));
+  FileParts f;
+  serialize(c, o, f);
+  std::vector<std::uint8_t> file(f.header);
+  file.insert(file.end(), f.fbb.GetBufferPointer(), f.fbb.GetBufferPointer() + f.fbb.GetSize());
+  file.insert(file.end(), f.section.begin(), f.section.end());
+  return file;
 }
 
 void check_asset_file_writable(const std::string& path) {
@@ -332,14 +389,20 @@ void check_asset_file_writable(const std::string& path) {
   std::remove(tmp.c_str());
 }
 
+// Written part by part, not assembled first: the blob section is most of the file, and a copy
+// of it would double what writing a large asset holds.
 void write_asset_file(const AssetContent& content, const WriteOptions& options,
                       const std::string& path) {
-  const std::vector<std::uint8_t> bytes = write_asset(content, options);
+  FileParts f;
+  serialize(content, options, f);
   const std::string tmp = path + ".tmp";
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw FormatError(Status::Io, "cannot create " + tmp);
-  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  if (std::fclose(f) != 0 || !ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+  std::FILE* out = std::fopen(tmp.c_str(), "wb");
+  if (!out) throw FormatError(Status::Io, "cannot create " + tmp);
+  auto put = [&](const void* p, std::size_t n) { return n == 0 || std::fwrite(p, 1, n, out) == n; };
+  const bool ok = put(f.header.data(), f.header.size()) &&
+                  put(f.fbb.GetBufferPointer(), f.fbb.GetSize()) &&
+                  put(f.section.data(), f.section.size());
+  if (std::fclose(out) != 0 || !ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());
     throw FormatError(Status::Io, "cannot write " + path);
   }

@@ -600,8 +600,7 @@ int cubic(const std::vector<std::string>& args) {
     o.measure_neighbour_transfer = compare != 0;
     builder::BuildResult r = builder::build(host, o);
     const std::string path = out_dir + "/cadinterp-cubic-" + model + "-" + name + ".cadi";
-    format::WriteOptions w;
-    format::write_asset_file(r.content, w, path);
+    format::write_asset_file(r.content, builder::asset_write_options(o), path);
     const builder::AccuracyReport a = builder::measure_accuracy(
         path, host, points, 7, [am](int f, const double* x, const double* pt, double* v) {
           return f == 0 && analytic_model_field_at(am, f, x, pt, v) == CADINTERP_OK;
