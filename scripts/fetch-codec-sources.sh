@@ -86,8 +86,26 @@ for src in libzstd meshoptimizer draco; do
   dsc="$(ls "${src}_${upstream}.dsc" 2>/dev/null || true)"
   if [ -z "$dsc" ]; then
     echo "fetch-codec-sources: apt-get source --download-only $src=$v"
-    apt-get source -qq --download-only "$src=$v"
-    dsc="${src}_${upstream}.dsc"
+    got="$v"
+    if ! apt-get source -qq --download-only "$src=$v"; then
+      # A mirror may list a security update's source package without serving its files (seen
+      # for libzstd 1.5.4+dfsg2-5+deb12u1). Another Debian revision of the same upstream release
+      # decodes the same streams, so the newest one that downloads is taken, and said.
+      got=""
+      for alt in $(apt-cache showsrc "$src" | sed -n 's/^Version: //p' | sort -rV | uniq); do
+        [ "$alt" != "$v" ] && [ "${alt%-*}" = "${v%-*}" ] || continue
+        echo "fetch-codec-sources: $src=$v cannot be downloaded; taking $src=$alt, the same upstream release"
+        if apt-get source -qq --download-only "$src=$alt"; then
+          got="$alt"
+          break
+        fi
+      done
+      if [ -z "$got" ]; then
+        echo "fetch-codec-sources: no source package of $src ${v%-*} can be downloaded" >&2
+        exit 1
+      fi
+    fi
+    dsc="${src}_${got#*:}.dsc"
   fi
   rm -rf "$dir" "$dir.tmp"
   # No signature check needed beyond apt's: the files were verified against the signed index.
