@@ -166,6 +166,18 @@ void BM_ElementMemory(benchmark::State& state) {
   state.counters["asset_MB"] = asset / 1e6;
 }
 
+// One run per model (range(0): 0 bracket, 1 refined, 2 cubic), a single iteration in wall-clock
+// seconds.
+void each_model(benchmark::internal::Benchmark* b) {
+  b->ArgName("model")
+      ->Arg(0)
+      ->Arg(1)
+      ->Arg(2)
+      ->Unit(benchmark::kSecond)
+      ->UseRealTime()
+      ->Iterations(1);
+}
+
 // range(0): 0 bracket, 1 refined, 2 cubic; range(1): threads.
 BENCHMARK(BM_Build)
     ->ArgNames({"model", "threads"})
@@ -173,22 +185,8 @@ BENCHMARK(BM_Build)
     ->Unit(benchmark::kSecond)
     ->UseRealTime()
     ->Iterations(1);
-BENCHMARK(BM_Speedup)
-    ->ArgName("model")
-    ->Arg(0)
-    ->Arg(1)
-    ->Arg(2)
-    ->Unit(benchmark::kSecond)
-    ->UseRealTime()
-    ->Iterations(1);
-BENCHMARK(BM_ElementMemory)
-    ->ArgName("model")
-    ->Arg(0)
-    ->Arg(1)
-    ->Arg(2)
-    ->Unit(benchmark::kSecond)
-    ->UseRealTime()
-    ->Iterations(1);
+BENCHMARK(BM_Speedup)->Apply(each_model);
+BENCHMARK(BM_ElementMemory)->Apply(each_model);
 
 }  // namespace
 
