@@ -6,6 +6,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "builder/located_errors.h"
 #include "cadinterp/cadinterp.h"
 #include "mapping/field_transfer.h"
 #include "mapping/parallel_for.h"
@@ -53,37 +54,13 @@ std::vector<std::vector<double>> next_batch(std::mt19937& rng, const Host& host,
   return xs;
 }
 
-// A mesh's per-vertex values against `truth` where the meshes differ: each vertex v (at
-// position(v, p)) is located in truth's mesh (barycentric in the tet containing it, the nearest
-// for a vertex a geometry error outside), and for each compared field k (truth_fields[k], an
-// index into truth.fields, or -1 to skip) and component c, |value(k, v, c) - truth's value
-// there| / the truth field's range goes to note(k, v, error).
-template <class Position, class Value, class Note>
-void located_errors(const Sample& truth, std::uint32_t vertex_count,
-                    const std::vector<int>& truth_fields, Position position, Value value,
-                    Note note) {
-  const mapping::TetLocator locator(truth);
+// Each compared field's range in truth (located_errors' scale); 1 for a field not compared.
+std::vector<double> truth_ranges(const Sample& truth, const std::vector<int>& truth_fields) {
   std::vector<double> range(truth_fields.size(), 1.0);
   for (std::size_t k = 0; k < truth_fields.size(); ++k)
     if (truth_fields[k] >= 0)
       range[k] = value_range(truth.fields[static_cast<std::size_t>(truth_fields[k])].values);
-  for (std::uint32_t v = 0; v < vertex_count; ++v) {
-    double p[3], w[4];
-    position(v, p);
-    const int t = locator.locate(p, w);
-    if (t < 0) continue;
-    const std::uint32_t* tet = &truth.tets[4 * static_cast<std::size_t>(t)];
-    for (std::size_t k = 0; k < truth_fields.size(); ++k) {
-      if (truth_fields[k] < 0) continue;
-      const mesh::Field& tf = truth.fields[static_cast<std::size_t>(truth_fields[k])];
-      const auto C = static_cast<std::size_t>(tf.components);
-      for (std::size_t c = 0; c < C; ++c) {
-        double want = 0;
-        for (std::size_t j = 0; j < 4; ++j) want += w[j] * tf.values[tet[j] * C + c];
-        note(k, v, std::abs(value(k, v, c) - want) / range[k]);
-      }
-    }
-  }
+  return range;
 }
 
 }  // namespace
@@ -141,7 +118,8 @@ namespace {
 // runs them.
 class AccuracyRun {
  public:
-  AccuracyRun(const std::string& asset_path, const Host& host) : host_(host) {
+  AccuracyRun(const std::string& asset_path, const Host& host, bool always_located = false)
+      : host_(host), always_located_(always_located) {
     cadinterp_asset* raw = nullptr;
     if (cadinterp_open(asset_path.c_str(), &raw) != CADINTERP_OK)
       throw std::runtime_error("cannot open " + asset_path + ": " + cadinterp_open_error());
@@ -236,7 +214,7 @@ class AccuracyRun {
                    truth.bbox_diagonal());
     if (field_truth)
       against_closed_form(x, truth, m, field_truth);
-    else if (!same_mesh(truth, m))
+    else if (always_located_ || !same_mesh(truth, m))
       against_located_truth(truth, m);
     else
       against_same_mesh(truth, m);
@@ -404,7 +382,7 @@ class AccuracyRun {
       if (static_cast<std::size_t>(fields_[k]) < truth.fields.size()) truth_fields[k] = fields_[k];
     double e = 0;
     located_errors(
-        truth, m.vertex_count, truth_fields,
+        truth, m.vertex_count, truth_fields, truth_ranges(truth, truth_fields),
         [&](std::uint32_t v, double* p) {
           for (std::size_t c = 0; c < 3; ++c) p[c] = m.positions[3 * v + c];
         },
@@ -432,6 +410,7 @@ class AccuracyRun {
   }
 
   const Host& host_;
+  bool always_located_ = false;  // measure_accuracy_at's `located`
   std::unique_ptr<cadinterp_asset, AssetCloser> asset_;
   std::vector<std::unique_ptr<cadinterp_workspace, WorkspaceDestroyer>> ws_;  // per batch slot
   std::vector<int> fields_;
@@ -459,6 +438,22 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
     done += static_cast<int>(xs.size());
     run.batch(xs, field_truth, count_lost, on_evaluated_mesh, threads);
   }
+  return run.finish();
+}
+
+AccuracyReport measure_accuracy_at(const std::string& asset_path, const Host& host,
+                                   const std::vector<std::vector<double>>& xs, bool located,
+                                   int threads) {
+  for (const std::vector<double>& x : xs)
+    if (x.size() != static_cast<std::size_t>(host.dim()))
+      throw std::invalid_argument("measure_accuracy_at: a point has " + std::to_string(x.size()) +
+                                  " coordinates, the host " + std::to_string(host.dim()));
+  AccuracyRun run(asset_path, host, located);
+  const std::size_t per_batch = 4 * static_cast<std::size_t>(std::max(1, threads));
+  for (std::size_t i = 0; i < xs.size(); i += per_batch)
+    run.batch({xs.begin() + static_cast<std::ptrdiff_t>(i),
+               xs.begin() + static_cast<std::ptrdiff_t>(std::min(xs.size(), i + per_batch))},
+              nullptr, false, false, threads);
   return run.finish();
 }
 
@@ -505,6 +500,7 @@ TruthDependenceReport measure_truth_dependence(const Host& table, const Host& re
     ++r.compared;
     located_errors(
         truth, static_cast<std::uint32_t>(other.vertex_count()), truth_fields,
+        truth_ranges(truth, truth_fields),
         [&](std::uint32_t v, double* p) {
           for (std::size_t c = 0; c < 3; ++c) p[c] = other.vertices[3 * std::size_t(v) + c];
         },

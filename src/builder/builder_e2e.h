@@ -107,6 +107,17 @@ AccuracyReport measure_accuracy(const std::string& asset_path, const Host& host,
                                 bool count_lost = false, bool on_evaluated_mesh = false,
                                 int threads = 1);
 
+/// As measure_accuracy (no closed-form truth, no lost count, no evaluated-mesh simulation), at
+/// the given points instead of random ones, in their order: the builder's measurements at its
+/// own test points against the asset's true error there. With `located`, per-vertex fields are
+/// compared with the host's located at the evaluated vertices even where the host's mesh has
+/// the evaluated mesh's combinatorics: at a sample the builder mapped terms onto, the two share
+/// combinatorics but a mapped vertex has slid within its face (located_errors.h). Throws
+/// std::invalid_argument when a point has not host.dim() coordinates, else as measure_accuracy.
+AccuracyReport measure_accuracy_at(const std::string& asset_path, const Host& host,
+                                   const std::vector<std::vector<double>>& xs, bool located,
+                                   int threads = 1);
+
 /// The truth's own mesh dependence (Table 2's FEM columns take their truth from one mesh of x):
 /// at the `points` random x that measure_accuracy visits with `seed`, each per-vertex field of
 /// `reference` (another mesh of the same model: a finer one for the truth's discretization

@@ -376,8 +376,8 @@ bool ElementStage::measure_at(std::size_t e, int at, int crow, const std::vector
   std::vector<int> rows(static_cast<std::size_t>(w.count));
   for (int t = 0; t < w.count; ++t)
     rows[static_cast<std::size_t>(t)] = run_.sample_row[static_cast<std::size_t>(w.samples[t])];
-  return problem_.quantity_errors(at, crow, rows.data(), w.psi, w.count, opt_.geometry_tolerance,
-                                  q);
+  return problem_.quantity_errors(at, crow, rows.data(), w.psi, w.count, opt_.geometry_tolerance, q,
+                                  true);
 }
 
 // The element's error model (format/error_model.h), measured against rows the driver already
@@ -423,7 +423,7 @@ void ElementStage::measure_error_model(std::size_t e, int leaf, int crow, format
     if (!cubic) {
       const double psi[2] = {0.5, 0.5};
       known = face[0] >= 0 && face[1] >= 0 &&
-              problem_.quantity_errors(crow, crow, face, psi, 2, opt_.geometry_tolerance, q);
+              problem_.quantity_errors(crow, crow, face, psi, 2, opt_.geometry_tolerance, q, true);
       if (known) worst = q;
     }
     for (int side = 0; cubic && known && side < 2; ++side) {

@@ -413,6 +413,72 @@ TEST(ErrorEstimates, CornerFallbackElementsEstimateAsLinearOnes) {
   std::filesystem::remove(cpath);
 }
 
+// What the builder stores as an element's centre error (ElementMeshes.error_model) is the
+// asset's true error at that centre: each per-vertex field at the evaluated vertices against the
+// host's field located in its own tets there, as measure_accuracy compares them at random points.
+// The plate's terms are mapped (§6) onto the centre's mesh, and a mapped vertex slides within
+// its face, so a comparison vertex by vertex with the centre's own mesh measured the field's
+// gradient times that slide as error. Without canonical refinement the stored meshes are the
+// ones the builder measured.
+TEST(ErrorEstimates, CentreErrorIsTheAssetsTrueErrorThere) {
+  const cadinterp_host* h = analytic("plate", "edge=8");
+  ASSERT_NE(h, nullptr);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  o.max_samples = 60;
+  o.threads = 2;
+  o.canonical_refinement = 0;
+  const std::string path = temp_path("plate_centres.cadi");
+  const builder::BuildOutcome b = builder::build_asset(*h, o, path);
+  ASSERT_EQ(b.status, CADINTERP_OK) << b.error;
+  // Each modelled element's centre and stored centre errors (geometry, then the fields).
+  std::vector<std::vector<double>> centres, stored;
+  std::vector<std::string> fields;  // the index's, in its order
+  {
+    const auto r = format::AssetReader::open_file(path);
+    for (const auto* f : *r->index().fields()) fields.push_back(f->name()->str());
+    const int K = r->basis().dim();
+    const auto* params = r->index().parameters();
+    const auto* box = r->index().basis()->elem_box();
+    const auto* els = r->index().elements();
+    for (flatbuffers::uoffset_t e = 0; e < els->size(); ++e) {
+      const auto* m = els->Get(e);
+      if (!m->error_model()) continue;
+      std::vector<double> x(static_cast<std::size_t>(K)), row;
+      for (int d = 0; d < K; ++d) {
+        const auto* p = params->Get(static_cast<flatbuffers::uoffset_t>(d));
+        const double lo = box->Get(2 * K * e + d), hi = box->Get(2 * K * e + K + d);
+        x[static_cast<std::size_t>(d)] = p->lower() + (p->upper() - p->lower()) * (lo + hi) / 2;
+      }
+      for (flatbuffers::uoffset_t i = 0; i < m->error_model()->size(); i += K + 1)
+        row.push_back(m->error_model()->Get(i));
+      centres.push_back(x);
+      stored.push_back(row);
+    }
+  }
+  ASSERT_GE(centres.size(), 4u);
+  const mesh::Host host(*h);
+  const builder::AccuracyReport r = builder::measure_accuracy_at(path, host, centres, true, 2);
+  ASSERT_EQ(r.per_point.size(), centres.size());
+  ASSERT_EQ(r.field_names.size(), 2u) << "the plate's per-vertex fields";
+  int compared = 0;
+  for (std::size_t i = 0; i < centres.size(); ++i) {
+    const auto& p = r.per_point[i];
+    ASSERT_EQ(p.x, centres[i]);
+    ASSERT_EQ(p.error.size(), 1 + r.field_names.size());
+    for (std::size_t k = 0; k < r.field_names.size(); ++k) {
+      const auto f = std::find(fields.begin(), fields.end(), r.field_names[k]) - fields.begin();
+      const double want = stored[i][1 + static_cast<std::size_t>(f)];
+      // Float storage of the asset's positions and values: about 1e-7 of a field's range.
+      EXPECT_NEAR(p.error[1 + k], want, 1e-5 + 1e-3 * want)
+          << r.field_names[k] << " at the centre of modelled element " << i;
+      compared += want > 1e-4;
+    }
+  }
+  EXPECT_GT(compared, static_cast<int>(centres.size())) << "the fields err at the centres";
+  std::filesystem::remove(path);
+}
+
 // Calibration against a host whose truth is a closed form: at 200 random points (other points
 // than the calibration's), the estimate bounds the true error (geometry: the Hausdorff distance
 // to the host's mesh at x; fields: against the host's closed-form values on its mesh at x, the

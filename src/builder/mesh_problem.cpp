@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "builder/located_errors.h"
 #include "mapping/field_transfer.h"
 #include "mapping/parallel_for.h"
 #include "mesh/surface_distance.h"
@@ -99,14 +100,20 @@ void MeshProblem::evaluate(const std::vector<int>& rows, const std::vector<doubl
 }
 
 bool MeshProblem::quantity_errors(int at, int centre, const int* terms, const double* psi, int n,
-                                  double geometry_cutoff, std::vector<double>& out) {
+                                  double geometry_cutoff, std::vector<double>& out, bool located) {
   const Sample& canon = sample(centre);
   const std::size_t nv3 = canon.vertices.size();
   std::vector<double> V(nv3, 0.0);
   const std::size_t nfields = canon.fields.size();
   std::vector<std::vector<double>> F(nfields);
   for (std::size_t f = 0; f < nfields; ++f) F[f].assign(canon.fields[f].values.size(), 0.0);
-  if (spare_threads_ > 1 && !map_terms(nfields ? at : -1, centre, terms, n)) return false;
+  const Sample& truth = sample(at);
+  // Located per-vertex fields need row `at` as it is, not mapped onto `centre`.
+  const bool all_located =
+      located && std::all_of(truth.fields.begin(), truth.fields.end(),
+                             [](const Field& f) { return f.location == CADINTERP_PER_VERTEX; });
+  if (spare_threads_ > 1 && !map_terms(nfields && !all_located ? at : -1, centre, terms, n))
+    return false;
   View m;
   for (int t = 0; t < n; ++t) {
     if (!view(terms[t], centre, m)) return false;
@@ -114,7 +121,6 @@ bool MeshProblem::quantity_errors(int at, int centre, const int* terms, const do
     for (std::size_t f = 0; f < nfields; ++f)
       for (std::size_t i = 0; i < F[f].size(); ++i) F[f][i] += psi[t] * m.fields[f][i];
   }
-  const Sample& truth = sample(at);
   const double diagonal = truth.bbox_diagonal();
   out.assign(1 + nfields, 0.0);
   out[0] = -1;
@@ -135,19 +141,49 @@ bool MeshProblem::quantity_errors(int at, int centre, const int* terms, const do
     out[0] = symmetric_hausdorff(V, canon.triangles, truth.vertices, truth.triangles,
                                  hausdorff_threads_) /
              diagonal;
-  if (nfields) {
+  if (!nfields) return true;
+  std::vector<double> e(nfields, 0.0);
+  // Located where a row is mapped (a term, or `at` itself, of other combinatorics than the
+  // canonical mesh): a mapped vertex slides within its face (§6), so vertex i of the interpolant
+  // and of row `at` are not one point of the solid, and compared vertex by vertex a field with a
+  // gradient along the surface errs by that gradient times the slide even where the interpolant
+  // is exact. Each per-vertex field is compared with row `at`'s own field located at the
+  // interpolated positions instead, as measure_accuracy compares an asset with its host where
+  // the meshes differ (located_errors.h). Where no row is mapped, vertex i is one point of the
+  // solid in every row and the comparison stays vertex by vertex.
+  const auto cls = [&](int row) { return classes_[static_cast<std::size_t>(row)]; };
+  const bool locate =
+      located && (cls(at) != cls(centre) ||
+                  std::any_of(terms, terms + n, [&](int t) { return cls(t) != cls(centre); }));
+  if (locate) {
+    std::vector<int> compared(nfields, -1);
+    for (std::size_t f = 0; f < nfields; ++f)
+      if (truth.fields[f].location == CADINTERP_PER_VERTEX) compared[f] = static_cast<int>(f);
+    located_errors(
+        truth, static_cast<std::uint32_t>(nv3 / 3), compared, std::vector<double>(nfields, 1.0),
+        [&](std::uint32_t v, double* p) {
+          for (std::size_t c = 0; c < 3; ++c) p[c] = V[3 * std::size_t(v) + c];
+        },
+        [&](std::size_t f, std::uint32_t v, std::size_t c) {
+          return F[f][v * static_cast<std::size_t>(truth.fields[f].components) + c];
+        },
+        [&](std::size_t f, std::uint32_t, double err) { e[f] = std::max(e[f], err); });
+  }
+  if (!locate || !all_located) {
     if (!view(at, centre, m)) return false;
     for (std::size_t f = 0; f < nfields; ++f) {
-      const std::vector<double>& tv = truth.fields[f].values;
-      const auto mm = std::minmax_element(tv.begin(), tv.end());
-      // A constant field is measured against its magnitude instead (and 1 if it is 0).
-      double range = *mm.second - *mm.first;
-      if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
-      double e = 0;
+      if (locate && truth.fields[f].location == CADINTERP_PER_VERTEX) continue;
       for (std::size_t i = 0; i < F[f].size(); ++i)
-        e = std::max(e, std::abs(F[f][i] - m.fields[f][i]));
-      out[1 + f] = e / range;
+        e[f] = std::max(e[f], std::abs(F[f][i] - m.fields[f][i]));
     }
+  }
+  for (std::size_t f = 0; f < nfields; ++f) {
+    const std::vector<double>& tv = truth.fields[f].values;
+    const auto mm = std::minmax_element(tv.begin(), tv.end());
+    // A constant field is measured against its magnitude instead (and 1 if it is 0).
+    double range = *mm.second - *mm.first;
+    if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
+    out[1 + f] = e[f] / range;
   }
   return true;
 }

@@ -68,8 +68,13 @@ class MeshProblem final : public core::AdaptiveProblem {
   /// where rows share combinatorics and it is at most geometry_cutoff, an upper bound of the
   /// symmetric Hausdorff distance, else that distance), out[1 + f] field f's largest error
   /// relative to its range in row `at`. False where a term cannot be mapped. Thread-safe.
+  /// With `located`, each per-vertex field is compared at the interpolated vertex positions with
+  /// row `at`'s own field located there (barycentric in its tets), as measure_accuracy compares
+  /// an asset with its host (located_errors.h), where a term or `at` is mapped onto `centre`'s
+  /// combinatorics; else, and for per-tet fields, value by value with row `at` in the canonical
+  /// mesh of `centre`.
   bool quantity_errors(int at, int centre, const int* terms, const double* psi, int n,
-                       double geometry_cutoff, std::vector<double>& out);
+                       double geometry_cutoff, std::vector<double>& out, bool located = false);
   /// The wave's refinement tests on the executor's thread count (each is independent).
   void errors(const std::vector<ErrorQuery>& q, std::vector<double>& out) override;
   void on_wave(int elements) override;
