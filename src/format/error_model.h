@@ -12,9 +12,9 @@ namespace cadinterp::format {
 /// That set is the analytic models on one set of points (seed 7) and, for linear, the
 /// OpenCASCADE wrench (its load angle alone and all four parameters); the check is another set
 /// of points (seed 11), the error_estimate_tests' points and the other OpenCASCADE models
-/// (docs/error-estimates.md). Linear: 1.3 / 0.95 (the four-parameter wrench's von Mises at factor
-/// 1.3; the analytic models' smallest unscaled is 0.84). Cubic: the constant, the largest error
-/// measured at 2K + 1 points, misses the element's worst points: 1 / 0.89.
+/// (docs/error-estimates.md). Linear: 1 / 0.74 (the four-parameter wrench's traction, p10 1.04 at
+/// factor 1.4; the analytic models' smallest unscaled is 0.80). Cubic: the constant, the largest
+/// error measured at 2K + 1 points, misses the element's worst points: 1 / 0.89.
 inline constexpr double kErrorModelSafetyLinear = 1.4;
 inline constexpr double kErrorModelSafetyCubic = 1.15;
 
