@@ -373,6 +373,24 @@ typedef struct cadinterp_build_options {
    * vertex coordinate and per vertex field component (a 4,400-vertex mesh with 7 field
    * components: about 350 kB). */
   uint64_t map_cache_bytes;
+  /** Random points (0..100000; default 0: none) where the builder asks the host, besides its
+   * samples, to calibrate the error estimates on points no element is built from. At each point
+   * that falls in a feasible element and where the host answers, the meshes the element stores,
+   * blended there, are measured against the host's answer as an asset is checked against its
+   * host (geometry: symmetric Hausdorff distance relative to the diagonal; each field relative
+   * to its range, against the host's field located at the blended vertices where the meshes
+   * differ). Per quantity, cadinterp_error_estimates keeps the built-in safety factor unless
+   * these points show, with 95 % confidence, that it bounds the error at fewer than 90 % of the
+   * asset's points, or that a smaller factor bounds 90 %; then every element's model of that
+   * quantity is multiplied by the factor that bounds 90 % with 95 % confidence (an order
+   * statistic of the points' least sufficient factors: of 40 measured points the largest, of 60
+   * the second largest), but never so little that an estimate falls below the errors the
+   * builder measured on its elements. Fewer than 29 measured points change nothing
+   * (cadinterp_build_stages.calibration has the factors). The points come from a fixed seed, so
+   * a sample store answers them on a later run; they count as host evaluations (or store hits)
+   * and infeasible points like any other, not as samples. Recorded in the asset's provenance
+   * when nonzero. */
+  int calibration_points;
 } cadinterp_build_options;
 
 /** Fills `options` with the defaults above (struct_size included; other bytes zero). NULL is a
@@ -504,6 +522,13 @@ typedef struct cadinterp_build_stages {
    * feasible. They are usable, so neither unmapped_elements nor the report's
    * infeasible_elements counts them. */
   int unmapped_fallbacks;
+  /** calibration_points: the points where the host answered inside a built element and its
+   * stored meshes were measured; and per quantity (geometry, then each field in the asset's order)
+   * the factor the builder multiplied the error model by, calibration_count values
+   * (builder-owned, valid until the next run or destroy; NULL and 0 without calibration). */
+  int calibrated_points;
+  int calibration_count;
+  const double* calibration;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed (zeros before the first). Fills

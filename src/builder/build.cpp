@@ -17,6 +17,7 @@
 #include <unistd.h>
 #endif
 
+#include "builder/calibration.h"
 #include "builder/element_stage.h"
 #include "builder/mesh_problem.h"
 #include "builder/sample_store.h"
@@ -89,6 +90,9 @@ std::string options_json(const BuildOptions& o, const char* mapper_name) {
               ? ",\"infeasible_call_fraction\":\"" + hex_double(o.infeasible_call_fraction) + "\""
               : std::string()) +
          (o.lazy_face_centres ? ",\"lazy_face_centres\":true" : "") +
+         (o.calibration_points > 0
+              ? ",\"calibration_points\":" + std::to_string(o.calibration_points)
+              : std::string()) +
          ",\"canonical_refinement\":" + std::to_string(o.canonical_refinement) + "}";
 }
 
@@ -106,6 +110,9 @@ void check_options(const Host& host, const BuildOptions& opt) {
     throw std::invalid_argument("build: position_max_abs_error must be >= 0");
   if (!std::isfinite(opt.infeasible_call_fraction))
     throw std::invalid_argument("build: infeasible_call_fraction must be finite");
+  if (opt.calibration_points < 0 || opt.calibration_points > kMaxCalibrationPoints)
+    throw std::invalid_argument("build: calibration_points must be 0.." +
+                                std::to_string(kMaxCalibrationPoints));
   if (opt.simulate_mapped && !host.has_simulate())
     throw std::invalid_argument("build: simulate_mapped needs a host with a simulate callback");
 }
@@ -255,10 +262,15 @@ BuildResult build_stages(const Host& host, const BuildOptions& opt, BuildReport&
       core::CompiledBasis::compile(run.basis, host.lower(), host.upper(), &infeasible_sample);
 
   // Map per element (§6): its canonical mesh and its terms in that mesh's combinatorics.
+  // Calibration's held-out points (calibration.h) are asked first, so that each element measures
+  // them on the meshes it stores.
+  HeldOutPoints held_out = ask_held_out_points(opt, problem, cb, details);
   std::vector<std::uint8_t> element_ok(leaves.size(), 1);
-  const Sample* field_source = map_elements(host, opt, exec, problem, run, cb, infeasible_sample,
-                                            leaves, details, out, element_ok);
+  const Sample* field_source =
+      map_elements(host, opt, exec, problem, run, cb, infeasible_sample, leaves, details, out,
+                   element_ok, held_out.x.empty() ? nullptr : &held_out);
   if (!field_source) throw_no_element(leaves.size(), details);
+  calibrate_error_models(opt, cb, held_out, out.content.elements, details);
 
   // The asset around its elements.
   describe_asset(host, opt, mapper, cb, element_ok, *field_source, out);

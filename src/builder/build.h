@@ -105,6 +105,9 @@ struct BuildOptions {
   /// cadinterp_build_options::map_cache_bytes: memory for mapped samples kept between the
   /// refinement's tests and the element stage (0: default_map_cache_bytes()).
   std::size_t map_cache_bytes = 0;
+  /// cadinterp_build_options::calibration_points: random points where the host is asked after
+  /// the element stage to calibrate the error model (calibration.h; 0: none).
+  int calibration_points = 0;
 };
 
 /// The map cache's budget when BuildOptions::map_cache_bytes is 0: a quarter of the machine's
@@ -173,6 +176,11 @@ struct BuildReport {
   /// meshes and their terms mapped into them, the asset content. counts.wall_seconds is the
   /// whole build() call; counts.host_seconds sums the host's own time over evaluations.
   double store_seconds = 0, sampling_seconds = 0, refinement_seconds = 0, elements_seconds = 0;
+  /// calibration_points: the points where the host answered and the interpolant was measured,
+  /// and per quantity (geometry, then each field) the factor the error model was multiplied by
+  /// (empty without calibration; calibration.h).
+  int calibrated_points = 0;
+  std::vector<double> calibration;
   /// "" after a successful build, else the message of the exception build() threw.
   std::string failure;
 };

@@ -353,6 +353,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   bo.canonical_refinement = o.canonical_refinement;
   bo.infeasible_call_fraction = o.infeasible_call_fraction;
   bo.lazy_face_centres = o.lazy_face_centres != 0;
+  bo.calibration_points = o.calibration_points;
   bo.map_cache_bytes = static_cast<std::size_t>(
       std::min<std::uint64_t>(o.map_cache_bytes, std::numeric_limits<std::size_t>::max()));
   if (!std::isfinite(bo.infeasible_call_fraction))
@@ -369,6 +370,8 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   // option, as its header says, before any run.
   if (!(bo.position_max_abs_error >= 0))
     throw std::invalid_argument("options: position_max_abs_error must be >= 0");
+  if (bo.calibration_points < 0 || bo.calibration_points > 100000)
+    throw std::invalid_argument("options: calibration_points must be 0..100000");
   if (bo.simulate_mapped && !host->simulate)
     throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
   b->host_on_calling_thread = o.host_on_calling_thread != 0;
@@ -473,6 +476,9 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.maps = d.maps;
   s.maps_again = d.maps_again;
   s.unmapped_fallbacks = d.unmapped_fallbacks;
+  s.calibrated_points = d.calibrated_points;
+  s.calibration_count = static_cast<int>(d.calibration.size());
+  s.calibration = d.calibration.empty() ? nullptr : d.calibration.data();
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

@@ -84,6 +84,9 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
   if (r.stages.first_mapped_simulate_failure)
     r.first_mapped_simulate_failure = r.stages.first_mapped_simulate_failure;
   r.stages.first_mapped_simulate_failure = nullptr;
+  if (r.stages.calibration)
+    r.calibration.assign(r.stages.calibration, r.stages.calibration + r.stages.calibration_count);
+  r.stages.calibration = nullptr;
   cadinterp_builder_destroy(b);
   return r;
 }

@@ -61,9 +61,11 @@ struct BuildOutcome {
   cadinterp_status status = CADINTERP_E_INTERNAL;
   cadinterp_build_report report{};  ///< struct_size set; zeros when the builder was not created
   cadinterp_build_stages stages{};  ///< struct_size set; zeros when the builder was not created
-                                    ///< (first_mapped_simulate_failure NULL: copied below)
+                                    ///< (first_mapped_simulate_failure and calibration
+                                    ///< NULL: copied below)
   std::string error;                ///< the builder's message (or cadinterp_builder_create_error's)
   std::string first_mapped_simulate_failure;
+  std::vector<double> calibration;  ///< stages.calibration's values (empty without calibration)
 };
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path);

@@ -105,7 +105,8 @@ class ElementStage {
   ElementStage(const Host& host, const BuildOptions& opt, Executor& exec, MeshProblem& problem,
                const core::AdaptiveRun& run, core::CompiledBasis& cb,
                const std::vector<bool>& infeasible_sample, const std::vector<int>& leaves,
-               BuildReport& details, BuildResult& out, std::vector<std::uint8_t>& element_ok)
+               BuildReport& details, BuildResult& out, std::vector<std::uint8_t>& element_ok,
+               HeldOutPoints* held_out)
       : opt_(opt),
         exec_(exec),
         problem_(problem),
@@ -119,6 +120,7 @@ class ElementStage {
         rep_(details.counts),
         out_(out),
         element_ok_(element_ok),
+        held_out_(held_out),
         K_(host.dim()),
         cubic_(opt.degree == core::Degree::Cubic) {}
 
@@ -165,6 +167,7 @@ class ElementStage {
   bool measure_at(std::size_t e, int at, int crow, const std::vector<double>& x,
                   std::vector<double>& q);
   int feasible_row(const std::vector<double>& x) const;
+  void measure_held_out(std::size_t e, const format::ElementData& ed, const int* terms, int n);
 
   const BuildOptions& opt_;
   Executor& exec_;
@@ -179,6 +182,7 @@ class ElementStage {
   cadinterp_build_report& rep_;  // details_.counts
   BuildResult& out_;
   std::vector<std::uint8_t>& element_ok_;
+  HeldOutPoints* held_out_;  // may be null; each element writes only its own points' errors
   const int K_;
   const bool cubic_;
   std::map<std::vector<double>, int> rows_by_point_;  // the rows' x, exactly as evaluated
@@ -255,7 +259,23 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
       ed.error_estimate = format::error_model_with_floor(
           ed.error_estimate, cb_.element_cubic(static_cast<int>(e)), ed.geometry_floor);
   }
+  if (held_out_) measure_held_out(e, ed, terms, n);
   if (opt_.encode_elements) encode_and_release(ed, asset_write_options(opt_));
+}
+
+// The held-out points in element e, where the host answered: the meshes the element stores
+// (canonical refinement included), blended there, against the host's answer (calibration.h).
+void ElementStage::measure_held_out(std::size_t e, const format::ElementData& ed, const int* terms,
+                                    int n) {
+  for (int i : held_out_->in_element[e]) {
+    const auto u = static_cast<std::size_t>(i);
+    const Sample& truth = problem_.sample(held_out_->row[u]);
+    if (!truth.feasible) continue;
+    core::EvalWorkspace ws = cb_.make_workspace();
+    core::BasisWeights w;
+    cb_.eval_element(static_cast<int>(e), held_out_->x[u].data(), ws, false, &w);
+    stored_errors(ed, terms, n, w, truth, held_out_->error[u]);
+  }
 }
 
 // A cubic element refused because one of its terms could not be mapped onto its canonical mesh
@@ -704,9 +724,9 @@ const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& 
                            MeshProblem& problem, const core::AdaptiveRun& run,
                            core::CompiledBasis& cb, const std::vector<bool>& infeasible_sample,
                            const std::vector<int>& leaves, BuildReport& details, BuildResult& out,
-                           std::vector<std::uint8_t>& element_ok) {
+                           std::vector<std::uint8_t>& element_ok, HeldOutPoints* held_out) {
   return ElementStage(host, opt, exec, problem, run, cb, infeasible_sample, leaves, details, out,
-                      element_ok)
+                      element_ok, held_out)
       .run();
 }
 

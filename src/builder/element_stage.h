@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "builder/build.h"
+#include "builder/calibration.h"
 #include "builder/mesh_problem.h"
 #include "core/adaptive.h"
 #include "core/compiled_basis.h"
@@ -31,10 +32,12 @@ namespace cadinterp::builder {
 /// std::bad_alloc) are rethrown here once every worker has stopped. opt.progress is called on the
 /// calling thread between terms (every sample done, none queued, the stage's ETA); when it
 /// returns true, BuildCancelled is thrown once every worker has stopped at its next term.
+/// `held_out` (may be null): each built element fills error[i] of the held-out points in it
+/// (calibration.h, stored_errors) from the meshes it stores, before they are encoded.
 const Sample* map_elements(const Host& host, const BuildOptions& opt, Executor& exec,
                            MeshProblem& problem, const core::AdaptiveRun& run,
                            core::CompiledBasis& cb, const std::vector<bool>& infeasible_sample,
                            const std::vector<int>& leaves, BuildReport& details, BuildResult& out,
-                           std::vector<std::uint8_t>& element_ok);
+                           std::vector<std::uint8_t>& element_ok, HeldOutPoints* held_out);
 
 }  // namespace cadinterp::builder

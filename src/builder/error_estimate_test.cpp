@@ -8,17 +8,20 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "analytic_host.h"
 #include "builder/builder_e2e.h"
+#include "builder/calibration.h"
 #include "cadinterp/cadinterp.h"
 #include "cadinterp/cadinterp_builder.h"
 #include "cadinterp_generated.h"
 #include "format/asset_reader.h"
 #include "format/asset_writer.h"
+#include "format/error_model.h"
 #include "format/synthetic_asset.h"
 
 namespace {
@@ -537,6 +540,191 @@ TEST(ErrorEstimates, BoundTheTrueErrorAtMostPoints) {
     EXPECT_DOUBLE_EQ(static_cast<double>(covered[q]) / n[q], r.estimate_coverage[q]);
   }
   std::filesystem::remove(path);
+}
+
+// The order statistics that bracket the 90th percentile of n draws with 95 % confidence, against
+// exact binomial sums (computed apart): the k-th smallest of n is above the percentile with
+// probability P(Binomial(n, 0.9) <= k - 1), below it with P(Binomial(n, 0.9) >= k).
+TEST(ErrorCalibration, RanksBracketTheQuantile) {
+  const struct {
+    int n, lower, upper;
+  } cases[] = {{28, 22, 0}, {29, 23, 29}, {40, 33, 40}, {54, 45, 53}, {60, 50, 59}, {100, 85, 96}};
+  for (const auto& c : cases) {
+    int lower = -1, upper = -1;
+    builder::calibration_ranks(c.n, lower, upper);
+    EXPECT_EQ(lower, c.lower) << "n = " << c.n;
+    EXPECT_EQ(upper, c.upper) << "n = " << c.n;
+  }
+}
+
+// A point's need is the least factor whose reported estimate (the runtime's formula) reaches
+// the point's error: linear adds the floor, cubic takes the larger, the geometry's floor is
+// never below kGeometryFloor.
+TEST(ErrorCalibration, NeedIsTheLeastFactorThatBounds) {
+  auto reported = [](double c, double est, bool cubic, bool geometry, double floor) {
+    return format::error_model_reported(c * est, cubic, geometry, floor);
+  };
+  const struct {
+    double est;
+    bool cubic, geometry;
+    double floor, error;
+  } cases[] = {{0.01, false, false, 0.002, 0.016},
+               {0.01, false, false, 0.0, 0.05},
+               {0.01, true, false, 0.004, 0.03},
+               {2e-4, false, true, 1e-5, 1e-3},
+               {2e-4, true, true, 0.0, 4e-5}};
+  for (const auto& c : cases) {
+    const double need = builder::calibration_need(c.est, c.cubic, c.geometry, c.floor, c.error);
+    ASSERT_GT(need, 0);
+    EXPECT_GE(reported(need, c.est, c.cubic, c.geometry, c.floor), c.error);
+    EXPECT_LT(reported(need * (1 - 1e-9), c.est, c.cubic, c.geometry, c.floor), c.error);
+  }
+  // Linear: 1.4 c 0.01 + 0.002 >= 0.016 at c = 1 exactly.
+  EXPECT_NEAR(builder::calibration_need(0.01, false, false, 0.002, 0.016), 1.0, 1e-9);
+  // The floor alone bounds: 0 (the cubic floor, the geometry's float floor).
+  EXPECT_EQ(builder::calibration_need(0.01, true, false, 0.02, 0.015), 0.0);
+  EXPECT_EQ(builder::calibration_need(0.0, false, true, 0.0, 0.5 * format::kGeometryFloor), 0.0);
+  // Nothing to scale, or rounding noise: infinite.
+  EXPECT_TRUE(std::isinf(builder::calibration_need(0.0, false, false, 0.001, 0.002)));
+  EXPECT_TRUE(std::isinf(builder::calibration_need(1e-9, false, false, 0.0, 0.002)));
+  EXPECT_NEAR(builder::calibration_need(1e-6, false, false, 0.0, 1.4e-6), 1.0, 1e-9);
+}
+
+// The built-in factor stays unless the needs reject it with confidence; then the upper
+// bracket, no less than `least`; too few points or an infinite bracket change nothing.
+TEST(ErrorCalibration, FactorKeepsTheBuiltInUnlessTheNeedsRejectIt) {
+  auto needs_of = [](int n, double lo, double hi) {
+    std::vector<double> v;
+    for (int i = 0; i < n; ++i) v.push_back(lo + (hi - lo) * i / (n - 1));
+    return v;
+  };
+  // 60 needs from 0.1 to 1.1: 1 bounds 54 of them (the 50th is 0.93, the 59th 1.08): kept.
+  std::vector<double> v = needs_of(60, 0.1, 1.1);
+  EXPECT_EQ(builder::calibration_factor(v, 0.5), 1.0);
+  // Every need at most 0.4: the built-in factor overstates; the 59th need.
+  v = needs_of(60, 0.05, 0.4);
+  std::vector<double> sorted = v;
+  EXPECT_DOUBLE_EQ(builder::calibration_factor(v, 0.1), sorted[58]);
+  // ... but no less than `least`.
+  v = needs_of(60, 0.05, 0.4);
+  EXPECT_EQ(builder::calibration_factor(v, 0.7), 0.7);
+  // Needs from 0.5 to 3 (the 50th is 2.58): the built-in falls short; the 59th need.
+  v = needs_of(60, 0.5, 3.0);
+  sorted = v;
+  EXPECT_DOUBLE_EQ(builder::calibration_factor(v, 0.7), sorted[58]);
+  // Shuffled input: sorted first.
+  v = needs_of(60, 0.5, 3.0);
+  std::reverse(v.begin(), v.end());
+  EXPECT_DOUBLE_EQ(builder::calibration_factor(v, 0.7), sorted[58]);
+  // 28 points cannot bracket the 90th percentile with 95 % confidence.
+  v = needs_of(28, 2.0, 3.0);
+  EXPECT_EQ(builder::calibration_factor(v, 0.7), 1.0);
+  // Two points of 60 with a zero estimate and an error: the 59th need is infinite.
+  v = needs_of(60, 0.5, 3.0);
+  v[0] = v[1] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(builder::calibration_factor(v, 0.7), 1.0);
+}
+
+// cadinterp_build_options::calibration_points on the plate: the build asks the host at held-out
+// points once its elements are built, reports the factors, records the option, and multiplies
+// every element's model by its quantity's factor (the samples, meshes and floors are those of
+// the same build without calibration). The calibrated estimates are then checked against the
+// host at other random points: where a factor changed, the estimate still bounds the true error
+// at >= 90 % of them.
+TEST(ErrorCalibration, HeldOutPointsScaleEveryElementsModel) {
+  const cadinterp_host* h = analytic("plate", "edge=8");
+  ASSERT_NE(h, nullptr);
+  cadinterp_build_options o;
+  cadinterp_build_options_init(&o);
+  EXPECT_EQ(o.calibration_points, 0);
+  for (int bad : {-1, 100001}) {
+    cadinterp_build_options b = o;
+    b.calibration_points = bad;
+    cadinterp_builder* raw = nullptr;
+    EXPECT_EQ(cadinterp_builder_create(h, &b, &raw), CADINTERP_E_INVALID_ARGUMENT) << bad;
+    EXPECT_EQ(raw, nullptr);
+    EXPECT_NE(std::string(cadinterp_builder_create_error()).find("calibration_points"),
+              std::string::npos);
+  }
+  o.max_samples = 60;
+  o.threads = 2;
+  const std::string plain = temp_path("plate_plain.cadi"), calibrated = temp_path("plate_cal.cadi");
+  const builder::BuildOutcome a = builder::build_asset(*h, o, plain);
+  ASSERT_EQ(a.status, CADINTERP_OK) << a.error;
+  EXPECT_TRUE(a.calibration.empty());
+  EXPECT_EQ(a.stages.calibrated_points, 0);
+  o.calibration_points = 60;
+  const builder::BuildOutcome b = builder::build_asset(*h, o, calibrated);
+  ASSERT_EQ(b.status, CADINTERP_OK) << b.error;
+  EXPECT_EQ(b.report.samples, a.report.samples);
+  // Points in refused elements are not asked; the plate refuses none.
+  EXPECT_EQ(b.report.host_evaluations, a.report.host_evaluations + 60);
+  EXPECT_EQ(b.stages.calibrated_points, 60);
+  EXPECT_EQ(b.stages.points_requested, a.stages.points_requested);
+  ASSERT_EQ(b.calibration.size(), 4u) << "geometry and the plate's three fields";
+  bool changed = false;
+  for (double c : b.calibration) {
+    EXPECT_GE(c, 1 / format::kErrorModelSafetyLinear);
+    changed = changed || c != 1.0;
+  }
+  EXPECT_TRUE(changed) << "the plate's geometry estimate overstates by orders of magnitude";
+
+  const auto ra = format::AssetReader::open_file(plain);
+  const auto rb = format::AssetReader::open_file(calibrated);
+  EXPECT_NE(
+      std::string(rb->index().provenance()->options()->c_str()).find("\"calibration_points\":60"),
+      std::string::npos);
+  const int K = ra->basis().dim();
+  const auto* ea = ra->index().elements();
+  const auto* eb = rb->index().elements();
+  ASSERT_EQ(ea->size(), eb->size());
+  int modelled = 0;
+  for (flatbuffers::uoffset_t e = 0; e < ea->size(); ++e) {
+    const auto *ma = ea->Get(e), *mb = eb->Get(e);
+    ASSERT_EQ(ma->vertex_count(), mb->vertex_count());
+    EXPECT_EQ(ma->geometry_floor(), mb->geometry_floor());
+    if (!ma->error_model()) {
+      EXPECT_EQ(mb->error_model(), nullptr);
+      continue;
+    }
+    ++modelled;
+    ASSERT_EQ(ma->error_model()->size(), mb->error_model()->size());
+    for (flatbuffers::uoffset_t i = 0; i < ma->error_model()->size(); ++i) {
+      const double was = ma->error_model()->Get(i), is = mb->error_model()->Get(i);
+      const double c = b.calibration[i / static_cast<flatbuffers::uoffset_t>(K + 1)];
+      if (was < 0)
+        EXPECT_EQ(is, was) << "unknown stays unknown";
+      else
+        EXPECT_NEAR(is, was * c, 1e-12 * was * c) << "element " << e << ", entry " << i;
+    }
+  }
+  EXPECT_GT(modelled, 4);
+
+  // Against the host at 200 other random points (measure_accuracy's seed 3), each quantity
+  // whose factor changed.
+  std::vector<std::string> fields;  // the index's, in its order
+  for (const auto* f : *rb->index().fields()) fields.push_back(f->name()->str());
+  const mesh::Host host(*h);
+  const builder::AccuracyReport r = builder::measure_accuracy(calibrated, host, 200, 3);
+  int checked = 0;
+  for (std::size_t q = 0; q < r.estimate_points.size(); ++q) {
+    const std::string name = q ? r.field_names[q - 1] : "geometry";
+    const std::size_t slot =
+        q ? 1 + static_cast<std::size_t>(std::find(fields.begin(), fields.end(), name) -
+                                         fields.begin())
+          : 0;
+    ASSERT_LT(slot, b.calibration.size());
+    std::printf("[ figures ] %s: factor %.3f, bounded at %.1f %% of %d points, median %.2f\n",
+                name.c_str(), b.calibration[slot], 100 * r.estimate_coverage[q],
+                r.estimate_points[q], r.estimate_median_ratio[q]);
+    if (b.calibration[slot] == 1.0) continue;
+    ++checked;
+    EXPECT_GE(r.estimate_points[q], 190) << name;
+    EXPECT_GE(r.estimate_coverage[q], 0.9) << name;
+  }
+  EXPECT_GE(checked, 1);
+  std::filesystem::remove(plain);
+  std::filesystem::remove(calibrated);
 }
 
 }  // namespace

@@ -7,9 +7,12 @@
 // --budgets (default 120,600). With
 // --estimates, the calibration of cadinterp_error_estimates per model and degree: on two
 // disjoint sets of random points (seeds 7 and 11), per quantity, the fraction of points where
-// the estimate bounds the error measured against the host and the median estimate / error.
+// the estimate bounds the error measured against the host and the median estimate / error;
+// with --calibration-points N, of assets whose builder calibrated the estimates on N points of
+// its own (cadinterp_build_options::calibration_points).
 //   cadinterp-builder-figures [--points N] [--host-options OPTS]
-//                             [--calls | --infeasible [--budgets N,...] | --estimates]
+//                             [--calls | --infeasible [--budgets N,...] |
+//                              --estimates [--calibration-points N]]
 //                             [--model NAME]
 #include <chrono>
 #include <cstdio>
@@ -41,6 +44,11 @@ Run build(const cadinterp_host* host, const cadinterp_build_options& o, const st
   if (b.status != CADINTERP_OK) {
     std::fprintf(stderr, "build: %s\n", b.error.c_str());
     std::exit(1);
+  }
+  if (!b.calibration.empty()) {
+    std::fprintf(stderr, "calibrated on %d points, factors", b.stages.calibrated_points);
+    for (double c : b.calibration) std::fprintf(stderr, " %.3g", c);
+    std::fprintf(stderr, " (geometry, then each field)\n");
   }
   Run r;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -212,7 +220,7 @@ void print_estimates(const char* model, int degree, const builder::AccuracyRepor
 // The calibration of the per-point error estimates (cadinterp_error_estimates) against the
 // host at random points, per model and degree, at the figures' defaults.
 int estimates_table(const std::string& bracket_options, int points, const std::string& only,
-                    const std::string& path) {
+                    int calibration_points, const std::string& path) {
   std::printf(
       "model      degree  quantity     set A:  n  bounded  med ratio  p10 ratio  set B:  n  "
       "bounded  med ratio  p10 ratio\n");
@@ -224,6 +232,7 @@ int estimates_table(const std::string& bracket_options, int points, const std::s
     for (int degree : {1, 3}) {
       cadinterp_build_options o = figure_options();
       o.degree = degree;
+      o.calibration_points = calibration_points;
       build(host, o, path);
       print_estimates(m.name, degree, builder::measure_accuracy(path, h, points, 7),
                       builder::measure_accuracy(path, h, points, 11));
@@ -240,6 +249,7 @@ int main(int argc, char** argv) {
   bool calls = false, infeasible = false, estimates = false;
   std::string options = "cells=6", only_model;
   std::vector<int> budgets{120, 600};
+  int calibration_points = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--calls"))
       calls = true;
@@ -255,6 +265,12 @@ int main(int argc, char** argv) {
       options = argv[++i];
     else if (!std::strcmp(argv[i], "--budgets") && i + 1 < argc)
       budgets = parse_budgets(argv[++i]);
+    else if (!std::strcmp(argv[i], "--calibration-points") && i + 1 < argc)
+      calibration_points = std::atoi(argv[++i]);
+  }
+  if (calibration_points < 0 || calibration_points > 100000) {
+    std::fprintf(stderr, "--calibration-points: 0..100000\n");
+    return 2;
   }
   if (budgets.empty()) {
     std::fprintf(stderr, "--budgets: a comma-separated list of sample budgets >= 1\n");
@@ -265,7 +281,7 @@ int main(int argc, char** argv) {
       (std::filesystem::temp_directory_path() / "cadinterp_builder_figures.cadi").string();
   if (calls) return host_calls_table(options, points, only_model, path);
   if (infeasible) return infeasible_table(points, budgets, only_model, path);
-  if (estimates) return estimates_table(options, points, only_model, path);
+  if (estimates) return estimates_table(options, points, only_model, calibration_points, path);
   for (const char* model : {"bracket", "plate"}) {
     const cadinterp_host* host =
         analytic_host(model, std::strcmp(model, "bracket") ? "" : options.c_str());

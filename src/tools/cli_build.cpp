@@ -184,6 +184,10 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            "(less: the same asset, mapped again)",
            &a.map_cache_mb, 0, 1 << 30)
       .show_default("a quarter of physical memory, at least 512");
+  p.option("calibration-points", 0, "N",
+           "random points where the host is asked after the elements are built,\nto calibrate "
+           "the error estimates on points no element was built from\n(0: none)",
+           &o.calibration_points, 0, 100000);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
   // --mpi: the MPI block below.
@@ -257,6 +261,11 @@ void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_b
                  "  corner fallback    %d cubic elements multilinear on their corners: a term "
                  "could not be mapped\n",
                  st.unmapped_fallbacks);
+  if (st.calibration_count > 0) {
+    std::fprintf(out, "  calibration        %d points; error model factors", st.calibrated_points);
+    for (int q = 0; q < st.calibration_count; ++q) std::fprintf(out, " %.3g", st.calibration[q]);
+    std::fprintf(out, " (geometry, then each field)\n");
+  }
   if (r.infeasible_points > 0)
     std::fprintf(out,
                  "  infeasible region  %d failed host evaluations; %d splits toward the boundary, "

@@ -243,6 +243,11 @@ py::object report_of(const cadinterp_builder* builder, const std::string& output
   stages["maps"] = st.maps;
   stages["maps_again"] = st.maps_again;
   stages["unmapped_fallbacks"] = st.unmapped_fallbacks;
+  stages["calibrated_points"] = st.calibrated_points;
+  py::list calibration;
+  for (int q = 0; st.calibration && q < st.calibration_count; ++q)
+    calibration.append(st.calibration[q]);
+  stages["calibration"] = calibration;
   py::list reasons;
   for (int i = 0; i < st.infeasible_reasons; ++i) {
     const char* message = nullptr;
@@ -303,7 +308,8 @@ struct Options {
 py::object build(py::object host, py::object output_path, int degree, double geometry_tolerance,
                  double field_tolerance, int max_samples, int max_depth, int threads,
                  py::object store, double position_max_abs_error, bool simulate_mapped,
-                 int canonical_refinement, py::object progress, bool calling_thread) {
+                 int canonical_refinement, py::object progress, bool calling_thread,
+                 int calibration_points) {
   const py::object os = py::module_::import("os");
   const std::string output = py::str(os.attr("fspath")(output_path)).cast<std::string>();
   const std::string store_path =
@@ -331,6 +337,7 @@ py::object build(py::object host, py::object output_path, int degree, double geo
   opt.o.simulate_mapped = simulate_mapped ? 1 : 0;
   opt.o.canonical_refinement = canonical_refinement;
   opt.o.host_on_calling_thread = calling_thread ? 1 : 0;
+  opt.o.calibration_points = calibration_points;
   opt.o.progress = progress_cb;
   opt.o.progress_user = &bridge;
 
@@ -368,6 +375,7 @@ void init_builder(py::module_& m) {
         arg("simulate_mapped") = o.simulate_mapped != 0,
         arg("canonical_refinement") = o.canonical_refinement, arg("progress") = py::none(),
         arg("calling_thread") = o.host_on_calling_thread != 0,
+        arg("calibration_points") = o.calibration_points,
         R"(Precomputes `host` (a Python host, see cadinterp.Host) into the asset `output_path`
 with libcadinterp_builder and returns a cadinterp.BuildReport. The options are those of
 cadinterp_build_options (cadinterp_builder.h), with its defaults but threads=1 (0: one per

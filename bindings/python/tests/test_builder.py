@@ -55,6 +55,19 @@ def test_store_resumes_and_refuses_another_identity(tmp_path):
         cadinterp.build(BoxHost(fail_above=1.5), tmp_path / "c.cadi", store=store, **COARSE)
 
 
+def test_calibration_points_are_asked_and_reported(tmp_path):
+    plain = cadinterp.build(BoxHost(), tmp_path / "a.cadi", **COARSE)
+    calibrated = cadinterp.build(BoxHost(), tmp_path / "b.cadi", calibration_points=40, **COARSE)
+    assert plain.stages["calibrated_points"] == 0 and plain.stages["calibration"] == []
+    assert calibrated.host_evaluations == plain.host_evaluations + 40
+    assert calibrated.samples == plain.samples
+    assert calibrated.stages["calibrated_points"] == 40
+    factors = calibrated.stages["calibration"]
+    assert len(factors) == 3 and all(f > 0 for f in factors)  # geometry, temperature, pressure
+    with pytest.raises(cadinterp.InvalidArgumentError):
+        cadinterp.build(BoxHost(), tmp_path / "c.cadi", calibration_points=-1, **COARSE)
+
+
 def test_host_exception_makes_an_infeasible_point(tmp_path):
     path = tmp_path / "corner.cadi"
     report = cadinterp.build(BoxHost(fail_above=1.7), path, **COARSE)

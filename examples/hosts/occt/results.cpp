@@ -94,6 +94,7 @@ int usage() {
                "                              [--simulate-mapped] [--canonical-refinement N]\n"
                "                              [--degree 1|3] [--truth-against K=V,...]\n"
                "                              [--truth-only] [--store S] [--map-cache MB]\n"
+               "                              [--calibration-points N]\n"
                "       cadinterp-occt-results --beam\n"
                "  --host-options    appended to every model's options (e.g. order=2)\n"
                "  --simulate-mapped the builder simulates each mapped term on its mapped mesh\n"
@@ -113,6 +114,8 @@ int usage() {
                "                    other host options is refused\n"
                "  --map-cache MB    the builder's map cache, in MiB (default: a quarter of\n"
                "                    physical memory); the assets do not depend on it\n"
+               "  --calibration-points N  the builder calibrates each asset's error model on N\n"
+               "                    random points of its own (default 0: the built-in factor)\n"
                "  --beam            only the FEM against beam theory (wrench handle, press spine)\n"
                "                    by element order and mesh size\n");
   return 2;
@@ -130,10 +133,11 @@ struct Args {
   int canonical_refinement = -1;
   int degree = 1;
   bool beam = false;
-  std::string truth_against;  // --truth-against: the reference host's extra options
-  bool truth_only = false;    // --truth-only: no build, only the truth against the reference
-  std::string store;          // --store: the sample stores' directory ("": none)
-  int map_cache_mb = 0;       // --map-cache (0: the builder's default)
+  std::string truth_against;   // --truth-against: the reference host's extra options
+  bool truth_only = false;     // --truth-only: no build, only the truth against the reference
+  std::string store;           // --store: the sample stores' directory ("": none)
+  int map_cache_mb = 0;        // --map-cache (0: the builder's default)
+  int calibration_points = 0;  // --calibration-points
 };
 
 // Parses the command line into `a`: 0, or the exit status of a usage error (the usage printed).
@@ -183,6 +187,9 @@ int parse_args(int argc, char** argv, Args& a) {
     } else if (arg == "--map-cache") {
       a.map_cache_mb = std::atoi(next().c_str());
       if (a.map_cache_mb < 1) return usage();
+    } else if (arg == "--calibration-points") {
+      a.calibration_points = std::atoi(next().c_str());
+      if (a.calibration_points < 1 || a.calibration_points > 100000) return usage();
     } else if (arg == "--truth-only") {
       a.truth_only = true;
     } else if (arg == "--simulate-mapped") {
@@ -240,6 +247,7 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   o.degree = a.degree;
   o.simulate_mapped = a.simulate_mapped ? 1 : 0;
   o.map_cache_bytes = static_cast<std::uint64_t>(a.map_cache_mb) << 20;
+  o.calibration_points = a.calibration_points;
   if (a.canonical_refinement >= 0) o.canonical_refinement = a.canonical_refinement;
   o.max_samples = a.max_samples > 0 ? a.max_samples : (a.full ? 256 : 40);
   o.max_depth = a.max_depth >= 0 ? a.max_depth : (a.full ? 8 : 4);
@@ -284,6 +292,12 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
   row.stored = b.report.stored_meshes;
   row.per_sample =
       b.report.host_evaluations > 0 ? b.report.host_seconds / b.report.host_evaluations : -1;
+  if (!b.calibration.empty()) {
+    std::fprintf(stderr, "  %s: error model calibrated on %d points, factors", name.c_str(),
+                 b.stages.calibrated_points);
+    for (double c : b.calibration) std::fprintf(stderr, " %.3g", c);
+    std::fprintf(stderr, " (geometry, then each field)\n");
+  }
   if (!store.empty())
     std::fprintf(stderr, "  %s: sample store %s: %d points read, %d host evaluations\n",
                  name.c_str(), store.c_str(), b.report.store_hits, b.report.host_evaluations);
