@@ -281,6 +281,10 @@ typedef struct cadinterp_progress {
  * that is running. */
 typedef int (*cadinterp_progress_fn)(void* user, const cadinterp_progress* progress);
 
+/** The most random points a build may ask to calibrate its error estimates
+ * (cadinterp_build_options.calibration_points). */
+#define CADINTERP_MAX_CALIBRATION_POINTS 100000
+
 /** Options of a build. Fill it with cadinterp_build_options_init (the defaults), then change
  * members. cadinterp_builder_create copies it (and store_path); progress_user is kept as a
  * pointer. A caller built against an older, shorter struct sets struct_size to its own size and
@@ -373,13 +377,13 @@ typedef struct cadinterp_build_options {
    * vertex coordinate and per vertex field component (a 4,400-vertex mesh with 7 field
    * components: about 350 kB). */
   uint64_t map_cache_bytes;
-  /** Random points (0..100000; default 0: none) where the builder asks the host, besides its
-   * samples, to calibrate the error estimates on points no element is built from. At each point
-   * that falls in a feasible element and where the host answers, the meshes the element stores,
-   * blended there, are measured against the host's answer as an asset is checked against its
-   * host (geometry: symmetric Hausdorff distance relative to the diagonal; each field relative
-   * to its range, against the host's field located at the blended vertices where the meshes
-   * differ). Per quantity, cadinterp_error_estimates keeps the built-in safety factor unless
+  /** Random points (0..CADINTERP_MAX_CALIBRATION_POINTS; default 0: none) where the builder asks
+   * the host, besides its samples, to calibrate the error estimates on points no element is built
+   * from. At each point that falls in a feasible element and where the host answers, the meshes the
+   * element stores, blended there, are measured against the host's answer as an asset is checked
+   * against its host (geometry: symmetric Hausdorff distance relative to the diagonal; each field
+   * relative to its range, against the host's field located at the blended vertices where the
+   * meshes differ). Per quantity, cadinterp_error_estimates keeps the built-in safety factor unless
    * these points show, with 95 % confidence, that it bounds the error at fewer than 90 % of the
    * asset's points, or that a smaller factor bounds 90 %; then every element's model of that
    * quantity is multiplied by the factor that bounds 90 % with 95 % confidence (an order

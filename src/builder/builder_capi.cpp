@@ -370,8 +370,9 @@ CADINTERP_API cadinterp_status cadinterp_builder_create(const cadinterp_host* ho
   // option, as its header says, before any run.
   if (!(bo.position_max_abs_error >= 0))
     throw std::invalid_argument("options: position_max_abs_error must be >= 0");
-  if (bo.calibration_points < 0 || bo.calibration_points > 100000)
-    throw std::invalid_argument("options: calibration_points must be 0..100000");
+  if (bo.calibration_points < 0 || bo.calibration_points > CADINTERP_MAX_CALIBRATION_POINTS)
+    throw std::invalid_argument("options: calibration_points must be 0.." +
+                                std::to_string(CADINTERP_MAX_CALIBRATION_POINTS));
   if (bo.simulate_mapped && !host->simulate)
     throw std::invalid_argument("options: simulate_mapped needs a host with a simulate callback");
   b->host_on_calling_thread = o.host_on_calling_thread != 0;

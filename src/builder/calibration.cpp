@@ -116,15 +116,8 @@ void stored_errors(const format::ElementData& ed, const int* terms, int n,
           return F[offset[f] + v * static_cast<std::size_t>(truth.fields[f].components) + c];
         },
         [&](std::size_t f, std::uint32_t, double err) { e[f] = std::max(e[f], err); });
-  for (std::size_t f = 0; f < nfields; ++f) {
-    if (e[f] < 0) continue;
-    const std::vector<double>& tv = truth.fields[f].values;
-    const auto mm = std::minmax_element(tv.begin(), tv.end());
-    // A constant field against its magnitude (1 if 0), as the builder's measurements.
-    double range = *mm.second - *mm.first;
-    if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
-    out[1 + f] = e[f] / range;
-  }
+  for (std::size_t f = 0; f < nfields; ++f)
+    if (e[f] >= 0) out[1 + f] = e[f] / field_error_scale(truth.fields[f].values);
 }
 
 double calibration_need(double est, bool cubic, bool geometry, double floor, double error) {

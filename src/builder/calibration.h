@@ -11,13 +11,14 @@
 
 #include "builder/build.h"
 #include "builder/mesh_problem.h"
+#include "cadinterp/cadinterp_builder.h"
 #include "core/compiled_basis.h"
 #include "format/asset_writer.h"
 
 namespace cadinterp::builder {
 
 /// The most points a build may ask for its calibration (cadinterp_build_options).
-inline constexpr int kMaxCalibrationPoints = 100000;
+inline constexpr int kMaxCalibrationPoints = CADINTERP_MAX_CALIBRATION_POINTS;
 
 /// The share of an asset's points whose error its calibrated estimate bounds (the 90 % the
 /// estimates promise at random points), and the confidence with which the factor fitted on a

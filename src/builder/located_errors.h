@@ -6,6 +6,7 @@
 // against measure one thing.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -14,6 +15,16 @@
 #include "mesh/sample.h"
 
 namespace cadinterp::builder {
+
+/// The scale of a field's errors in the builder's measurements (its error model and its
+/// calibration): the field's range (max - min of `values`), or, for a constant field, its
+/// magnitude (1 if it is 0), so that a constant field's error is still relative. `values` must
+/// not be empty. Thread-safe.
+inline double field_error_scale(const std::vector<double>& values) {
+  const auto mm = std::minmax_element(values.begin(), values.end());
+  const double range = *mm.second - *mm.first;
+  return range > 0 ? range : std::max(std::abs(*mm.first), 1.0);
+}
 
 /// An evaluated mesh's per-vertex values against `truth` located at its vertices: each vertex v
 /// (at position(v, p)) is located in truth's mesh (barycentric in the tet containing it, the

@@ -177,14 +177,8 @@ bool MeshProblem::quantity_errors(int at, int centre, const int* terms, const do
         e[f] = std::max(e[f], std::abs(F[f][i] - m.fields[f][i]));
     }
   }
-  for (std::size_t f = 0; f < nfields; ++f) {
-    const std::vector<double>& tv = truth.fields[f].values;
-    const auto mm = std::minmax_element(tv.begin(), tv.end());
-    // A constant field is measured against its magnitude instead (and 1 if it is 0).
-    double range = *mm.second - *mm.first;
-    if (!(range > 0)) range = std::max(std::abs(*mm.first), 1.0);
-    out[1 + f] = e[f] / range;
-  }
+  for (std::size_t f = 0; f < nfields; ++f)
+    out[1 + f] = e[f] / field_error_scale(truth.fields[f].values);
   return true;
 }
 

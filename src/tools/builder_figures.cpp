@@ -268,8 +268,8 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--calibration-points") && i + 1 < argc)
       calibration_points = std::atoi(argv[++i]);
   }
-  if (calibration_points < 0 || calibration_points > 100000) {
-    std::fprintf(stderr, "--calibration-points: 0..100000\n");
+  if (calibration_points < 0 || calibration_points > CADINTERP_MAX_CALIBRATION_POINTS) {
+    std::fprintf(stderr, "--calibration-points: 0..%d\n", CADINTERP_MAX_CALIBRATION_POINTS);
     return 2;
   }
   if (budgets.empty()) {

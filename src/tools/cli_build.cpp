@@ -185,9 +185,9 @@ void declare_options(ArgParser& p, BuildArgs& a) {
            &a.map_cache_mb, 0, 1 << 30)
       .show_default("a quarter of physical memory, at least 512");
   p.option("calibration-points", 0, "N",
-           "random points where the host is asked after the elements are built,\nto calibrate "
-           "the error estimates on points no element was built from\n(0: none)",
-           &o.calibration_points, 0, 100000);
+           "random points where the host is asked besides the samples, to\ncalibrate "
+           "the error estimates on points no element is built from\n(0: none)",
+           &o.calibration_points, 0, CADINTERP_MAX_CALIBRATION_POINTS);
   p.option("output", 'o', "OUT.cadi", "the asset to write", &a.output).required();
   p.flag("quiet", 'q', "no progress output (the summary is still printed)", &a.quiet);
   // --mpi: the MPI block below.

@@ -189,7 +189,8 @@ int parse_args(int argc, char** argv, Args& a) {
       if (a.map_cache_mb < 1) return usage();
     } else if (arg == "--calibration-points") {
       a.calibration_points = std::atoi(next().c_str());
-      if (a.calibration_points < 1 || a.calibration_points > 100000) return usage();
+      if (a.calibration_points < 0 || a.calibration_points > CADINTERP_MAX_CALIBRATION_POINTS)
+        return usage();
     } else if (arg == "--truth-only") {
       a.truth_only = true;
     } else if (arg == "--simulate-mapped") {
