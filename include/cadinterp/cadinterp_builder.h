@@ -377,21 +377,27 @@ typedef struct cadinterp_build_options {
    * vertex coordinate and per vertex field component (a 4,400-vertex mesh with 7 field
    * components: about 350 kB). */
   uint64_t map_cache_bytes;
-  /** Random points (0..CADINTERP_MAX_CALIBRATION_POINTS; default 0: none) where the builder asks
-   * the host, besides its samples, to calibrate the error estimates on points no element is built
-   * from. At each point that falls in a feasible element and where the host answers, the meshes the
-   * element stores, blended there, are measured against the host's answer as an asset is checked
-   * against its host (geometry: symmetric Hausdorff distance relative to the diagonal; each field
-   * relative to its range, against the host's field located at the blended vertices where the
-   * meshes differ). Per quantity, cadinterp_error_estimates keeps the built-in safety factor unless
-   * these points show, with 95 % confidence, that it bounds the error at fewer than 90 % of the
-   * asset's points, or that a smaller factor bounds 90 %; then every element's model of that
-   * quantity is multiplied by the factor that bounds 90 % with 95 % confidence (an order
-   * statistic of the points' least sufficient factors: of 40 measured points the largest, of 60
-   * the second largest), but never so little that an estimate falls below the errors the
-   * builder measured on its elements. Fewer than 29 measured points change nothing
-   * (cadinterp_build_stages.calibration has the factors). The points come from a fixed seed, so
-   * a sample store answers them on a later run; they count as host evaluations (or store hits)
+  /** Random points (0..CADINTERP_MAX_CALIBRATION_POINTS; default 0: none) where the builder
+   * asks the host, besides its samples, to calibrate the error estimates on points no element is
+   * built from. At each point that falls in a feasible element and where the host answers, the
+   * meshes the element stores, blended there, are measured against the host's answer as an
+   * asset is checked against its host (geometry: symmetric Hausdorff distance relative to the
+   * diagonal; each field relative to its range, against the host's field located at the blended
+   * vertices where the meshes differ). Per quantity, cadinterp_error_estimates keeps the
+   * built-in safety factor unless these points show, with 95 % confidence, that it bounds the
+   * error at fewer than 90 % of the asset's points, or that a smaller factor bounds 90 %. Where
+   * it overstates, every element's model of that quantity is multiplied by the factor that
+   * bounds 90 % with 95 % confidence (an order statistic of the points' least sufficient
+   * factors: of 40 measured points the largest, of 60 the second largest), but never so little
+   * that an estimate falls below the errors the builder measured on its elements. Where it
+   * falls short, the builder either multiplies the model so, or adds to every element's floor
+   * of the quantity the floor that bounds 90 % with that confidence (the same order statistic
+   * of the points' least sufficient floors), whichever makes the points' estimates the smaller
+   * multiple of their errors at the median: the floor serves errors that do not vanish next to
+   * the samples (a field carried on its sample's mesh against the host's mesh at x). Fewer than
+   * 29 measured points change nothing (cadinterp_build_stages.calibration and
+   * calibration_floors have the factors and floors). The points come from a fixed seed, so a
+   * sample store answers them on a later run; they count as host evaluations (or store hits)
    * and infeasible points like any other, not as samples. Recorded in the asset's provenance
    * when nonzero. */
   int calibration_points;
@@ -533,6 +539,11 @@ typedef struct cadinterp_build_stages {
   int calibrated_points;
   int calibration_count;
   const double* calibration;
+  /** Per quantity (calibration_count values, in calibration's order), the floor the builder
+   * added to every element's floor of that quantity, relative as the quantity's estimates: 0
+   * where the factor alone served (builder-owned, valid until the next run or destroy; NULL
+   * without calibration). */
+  const double* calibration_floors;
 } cadinterp_build_stages;
 
 /** Stage times and counts of the last run, finished or failed (zeros before the first). Fills

@@ -178,9 +178,10 @@ struct BuildReport {
   double store_seconds = 0, sampling_seconds = 0, refinement_seconds = 0, elements_seconds = 0;
   /// calibration_points: the points where the host answered and the interpolant was measured,
   /// and per quantity (geometry, then each field) the factor the error model was multiplied by
-  /// (empty without calibration; calibration.h).
+  /// and the floor added to every element's floor (both empty without calibration;
+  /// calibration.h).
   int calibrated_points = 0;
-  std::vector<double> calibration;
+  std::vector<double> calibration, calibration_floors;
   /// "" after a successful build, else the message of the exception build() threw.
   std::string failure;
 };

@@ -480,6 +480,7 @@ CADINTERP_API cadinterp_status cadinterp_builder_stages(const cadinterp_builder*
   s.calibrated_points = d.calibrated_points;
   s.calibration_count = static_cast<int>(d.calibration.size());
   s.calibration = d.calibration.empty() ? nullptr : d.calibration.data();
+  s.calibration_floors = d.calibration_floors.empty() ? nullptr : d.calibration_floors.data();
   std::memcpy(out, &s, s.struct_size);
   return CADINTERP_OK;
 }

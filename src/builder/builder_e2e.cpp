@@ -86,7 +86,11 @@ BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_optio
   r.stages.first_mapped_simulate_failure = nullptr;
   if (r.stages.calibration)
     r.calibration.assign(r.stages.calibration, r.stages.calibration + r.stages.calibration_count);
+  if (r.stages.calibration_floors)
+    r.calibration_floors.assign(r.stages.calibration_floors,
+                                r.stages.calibration_floors + r.stages.calibration_count);
   r.stages.calibration = nullptr;
+  r.stages.calibration_floors = nullptr;
   cadinterp_builder_destroy(b);
   return r;
 }

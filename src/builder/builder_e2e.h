@@ -66,6 +66,7 @@ struct BuildOutcome {
   std::string error;                ///< the builder's message (or cadinterp_builder_create_error's)
   std::string first_mapped_simulate_failure;
   std::vector<double> calibration;  ///< stages.calibration's values (empty without calibration)
+  std::vector<double> calibration_floors;  ///< stages.calibration_floors' values
 };
 BuildOutcome build_asset(const cadinterp_host& host, const cadinterp_build_options& options,
                          const std::string& output_path);

@@ -168,6 +168,50 @@ double calibration_factor(std::vector<double>& needs, double least) {
   return std::isfinite(c) ? std::max(c, least) : 1.0;
 }
 
+double calibration_floor_need(const CalibrationPoint& p) {
+  auto reported = [&](double F) {
+    return format::error_model_reported(p.est, p.cubic, p.geometry, p.floor + F);
+  };
+  if (reported(0) >= p.error) return 0;
+  // Nondecreasing in F, and at least the floor: F = error bounds.
+  double lo = 0, hi = p.error;
+  for (int i = 0; i < 64 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = (lo + hi) / 2;
+    (reported(mid) >= p.error ? hi : lo) = mid;
+  }
+  return hi;
+}
+
+CalibrationChoice calibrate_quantity(const std::vector<CalibrationPoint>& points, double least) {
+  CalibrationChoice choice;
+  std::vector<double> needs;
+  for (const CalibrationPoint& p : points)
+    needs.push_back(calibration_need(p.est, p.cubic, p.geometry, p.floor, p.error));
+  choice.factor = calibration_factor(needs, least);  // sorts needs
+  int lower = 0, upper = 0;
+  calibration_ranks(static_cast<int>(points.size()), lower, upper);
+  if (lower == 0 || upper == 0 || !(needs[static_cast<std::size_t>(lower - 1)] > 1))
+    return choice;  // kept, or lowered
+  std::vector<double> floors;
+  for (const CalibrationPoint& p : points) floors.push_back(calibration_floor_need(p));
+  std::sort(floors.begin(), floors.end());
+  const double F = floors[static_cast<std::size_t>(upper - 1)];
+  if (choice.factor == 1.0) return {1.0, F};  // the factor's bracket is infinite
+  // The median over the points of estimate / error with the factor c and the floor F added.
+  auto median_ratio = [&](double c, double add) {
+    std::vector<double> r;
+    for (const CalibrationPoint& p : points)
+      if (p.error > 0)
+        r.push_back(format::error_model_reported(c * p.est, p.cubic, p.geometry, p.floor + add) /
+                    p.error);
+    if (r.empty()) return 0.0;
+    std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+    return r[r.size() / 2];
+  };
+  if (median_ratio(1.0, F) < median_ratio(choice.factor, 0.0)) return {1.0, F};
+  return choice;
+}
+
 void calibrate_error_models(const BuildOptions& opt, const core::CompiledBasis& cb,
                             const HeldOutPoints& held_out,
                             std::vector<format::ElementData>& elements, BuildReport& details) {
@@ -180,8 +224,8 @@ void calibrate_error_models(const BuildOptions& opt, const core::CompiledBasis& 
   if (modelled == elements.end()) return;
   const std::size_t Q = modelled->error_model.size() / W;
 
-  // Per quantity, each measured point's need of the estimate its element reports there.
-  std::vector<std::vector<double>> needs(Q);
+  // Per quantity, each measured point's estimate and error.
+  std::vector<std::vector<CalibrationPoint>> points(Q);
   int count = 0;
   for (std::size_t i = 0; i < held_out.x.size(); ++i) {
     const std::vector<double>& err = held_out.error[i];
@@ -197,7 +241,7 @@ void calibrate_error_models(const BuildOptions& opt, const core::CompiledBasis& 
     for (std::size_t q = 0; q < Q; ++q) {
       const double est = format::error_model_estimate(ed.error_model.data() + q * W, K, cubic, t);
       if (est < 0 || err[q] < 0) continue;
-      needs[q].push_back(calibration_need(est, cubic, q == 0, floor_of(ed, q), err[q]));
+      points[q].push_back({est, cubic, q == 0, floor_of(ed, q), err[q]});
     }
   }
 
@@ -205,13 +249,28 @@ void calibrate_error_models(const BuildOptions& opt, const core::CompiledBasis& 
                                                                 : format::kErrorModelSafetyLinear);
   details.calibrated_points = count;
   details.calibration.assign(Q, 1.0);
-  for (std::size_t q = 0; q < Q; ++q) details.calibration[q] = calibration_factor(needs[q], least);
+  details.calibration_floors.assign(Q, 0.0);
+  for (std::size_t q = 0; q < Q; ++q) {
+    const CalibrationChoice c = calibrate_quantity(points[q], least);
+    details.calibration[q] = c.factor;
+    details.calibration_floors[q] = c.floor;
+  }
   for (std::size_t e = 0; e < elements.size(); ++e) {
     format::ElementData& ed = elements[e];
     if (ed.error_model.size() != Q * W) continue;
     for (std::size_t q = 0; q < Q; ++q)
       for (std::size_t j = 0; j < W; ++j)
         if (ed.error_model[q * W + j] >= 0) ed.error_model[q * W + j] *= details.calibration[q];
+    for (std::size_t q = 0; q < Q; ++q) {
+      const double F = details.calibration_floors[q];
+      if (!(F > 0)) continue;
+      if (q == 0) {
+        ed.geometry_floor += F;
+      } else {
+        if (ed.field_floors.empty()) ed.field_floors.assign(Q - 1, 0.0);
+        ed.field_floors[q - 1] += F;
+      }
+    }
     if (ed.error_estimate >= 0)
       ed.error_estimate =
           format::error_model_with_floor(format::error_model_max(ed.error_model.data(), K),

@@ -87,13 +87,45 @@ void calibration_ranks(int n, int& lower, int& upper);
 /// exist (too few points). Sorts `needs`. Thread-safe; no failure.
 double calibration_factor(std::vector<double>& needs, double least);
 
-/// Multiplies each quantity's model row (its non-negative entries) of every element of
-/// `elements` (one per element of `cb`) by the quantity's factor: calibration_factor of the
-/// needs of the measured held-out points against the element's unscaled estimate there, with
-/// `least` = 1 / the degree's safety factor, so that no estimate falls below the errors the
-/// builder measured; recomputes error_estimate. Fills details.calibrated_points (the points
-/// measured) and details.calibration (one factor per quantity). Does nothing without points.
-/// No failure.
+/// One held-out point of one quantity: its element's unscaled estimate there
+/// (format::error_model_estimate), the element's basis and floor for the quantity, and the
+/// error measured there (stored_errors).
+struct CalibrationPoint {
+  double est = 0;
+  bool cubic = false, geometry = false;
+  double floor = 0, error = 0;
+};
+
+/// One point's floor need: the least F >= 0 such that, with F added to the element's floor,
+/// the estimate the runtime reports (format::error_model_reported) is at least the error.
+/// Thread-safe; no failure.
+double calibration_floor_need(const CalibrationPoint& p);
+
+/// What calibration does to one quantity: every element's model row multiplied by `factor`,
+/// and `floor` added to every element's floor.
+struct CalibrationChoice {
+  double factor = 1, floor = 0;
+};
+
+/// One quantity's calibration from its measured points. The factor is calibration_factor of
+/// the points' needs (calibration_need). Where the points reject the built-in factor as too
+/// small, a floor may serve instead: F, the upper bracket (calibration_ranks) of the points'
+/// floor needs, also bounds the coverage with kCalibrationConfidence. It serves where an error
+/// does not follow the model's shape, which is zero at the samples while a field carried on
+/// its sample's mesh differs from the host's mesh at x next to them as much as between them;
+/// scaling the shape then takes a factor many times too large elsewhere. Of the two remedies
+/// the one whose estimates are the smaller multiple of the errors at the points' median is
+/// chosen (the floor alone where the factor's bracket is infinite). `least` as
+/// calibration_factor. Thread-safe; no failure.
+CalibrationChoice calibrate_quantity(const std::vector<CalibrationPoint>& points, double least);
+
+/// Calibrates each quantity of every element of `elements` (one per element of `cb`) from the
+/// measured held-out points (calibrate_quantity, with `least` = 1 / the degree's safety factor,
+/// so that no estimate falls below the errors the builder measured): multiplies its model row
+/// (the non-negative entries) by the factor, adds the floor to its floor (geometry_floor, or
+/// field_floors, created at 0 where the element had none), and recomputes error_estimate.
+/// Fills details.calibrated_points (the points measured), details.calibration and
+/// details.calibration_floors (one per quantity). Does nothing without points. No failure.
 void calibrate_error_models(const BuildOptions& opt, const core::CompiledBasis& cb,
                             const HeldOutPoints& held_out,
                             std::vector<format::ElementData>& elements, BuildReport& details);

@@ -625,6 +625,67 @@ TEST(ErrorCalibration, FactorKeepsTheBuiltInUnlessTheNeedsRejectIt) {
   EXPECT_EQ(builder::calibration_factor(v, 0.7), 1.0);
 }
 
+// Where the points reject the built-in factor as too small, a floor serves instead when the
+// errors do not follow the model's shape, and the factor when they do.
+TEST(ErrorCalibration, FloorServesWhereTheErrorsDoNotFollowTheShape) {
+  using builder::CalibrationPoint;
+  // Linear: 1.4 x 0.01 + 0.002 + F >= 0.02 at F = 0.004.
+  EXPECT_NEAR(builder::calibration_floor_need({0.01, false, false, 0.002, 0.02}), 0.004, 1e-12);
+  // Cubic: max(1.15 x 0.01, 0.004 + F) >= 0.03 at F = 0.026.
+  EXPECT_NEAR(builder::calibration_floor_need({0.01, true, false, 0.004, 0.03}), 0.026, 1e-12);
+  EXPECT_EQ(builder::calibration_floor_need({0.01, false, false, 0.002, 0.016}), 0.0);
+  EXPECT_EQ(builder::calibration_floor_need({0.0, false, false, 0.0, 0.0}), 0.0);
+  const double s = format::kErrorModelSafetyLinear;
+
+  // The shape follows the errors, the constant is half what it should be: every point needs
+  // the factor 2, while the floors needed spread with the errors. The factor.
+  std::vector<CalibrationPoint> p;
+  for (int i = 0; i < 60; ++i) {
+    const double e = 0.01 * (1 + i);
+    p.push_back({e / (2 * s), false, false, 0.0, e});
+  }
+  builder::CalibrationChoice c = builder::calibrate_quantity(p, 0.7);
+  EXPECT_NEAR(c.factor, 2.0, 1e-9);
+  EXPECT_EQ(c.floor, 0.0);
+
+  // A step: the error is 0.1 everywhere while the shaped estimate falls to 0 at the samples.
+  // The factor would be 59 (the 59th need) and the estimates 29.5x the error at the median; the
+  // floor that bounds 59 of the 60 points is the error less the second smallest estimate.
+  p.clear();
+  for (int i = 0; i < 60; ++i) p.push_back({0.1 / s * i / 59.0, false, false, 0.0, 0.1});
+  c = builder::calibrate_quantity(p, 0.7);
+  EXPECT_EQ(c.factor, 1.0);
+  EXPECT_NEAR(c.floor, 0.1 - 0.1 / 59.0, 1e-9);
+  int bounded = 0;
+  for (const CalibrationPoint& q : p)
+    bounded += format::error_model_reported(q.est, false, false, q.floor + c.floor) >= q.error;
+  EXPECT_EQ(bounded, 59);
+
+  // Two points where the estimate is 0 and the quantity errs: the factor's bracket is infinite
+  // and no factor serves; the floor does (the 59th floor need is one of theirs, the error).
+  p.clear();
+  for (int i = 0; i < 60; ++i) p.push_back({i < 2 ? 0.0 : 0.01, false, false, 0.0, 0.02});
+  c = builder::calibrate_quantity(p, 0.7);
+  EXPECT_EQ(c.factor, 1.0);
+  EXPECT_NEAR(c.floor, 0.02, 1e-12);
+
+  // Kept; lowered (no floor: the points do not ask for more); too few points.
+  p.clear();
+  for (int i = 0; i < 60; ++i) p.push_back({0.01, false, false, 0.0, 0.014 * (0.1 + i / 59.0)});
+  c = builder::calibrate_quantity(p, 0.7);
+  EXPECT_EQ(c.factor, 1.0);
+  EXPECT_EQ(c.floor, 0.0);
+  for (CalibrationPoint& q : p) q.error *= 0.3;
+  c = builder::calibrate_quantity(p, 0.1);
+  EXPECT_LT(c.factor, 1.0);
+  EXPECT_EQ(c.floor, 0.0);
+  p.resize(28);
+  for (CalibrationPoint& q : p) q.error = 1.0;
+  c = builder::calibrate_quantity(p, 0.7);
+  EXPECT_EQ(c.factor, 1.0);
+  EXPECT_EQ(c.floor, 0.0);
+}
+
 // cadinterp_build_options::calibration_points on the plate: the build asks the host at held-out
 // points once its elements are built, reports the factors, records the option, and multiplies
 // every element's model by its quantity's factor (the samples, meshes and floors are those of
@@ -652,6 +713,7 @@ TEST(ErrorCalibration, HeldOutPointsScaleEveryElementsModel) {
   const builder::BuildOutcome a = builder::build_asset(*h, o, plain);
   ASSERT_EQ(a.status, CADINTERP_OK) << a.error;
   EXPECT_TRUE(a.calibration.empty());
+  EXPECT_TRUE(a.calibration_floors.empty());
   EXPECT_EQ(a.stages.calibrated_points, 0);
   o.calibration_points = 60;
   const builder::BuildOutcome b = builder::build_asset(*h, o, calibrated);
@@ -662,6 +724,7 @@ TEST(ErrorCalibration, HeldOutPointsScaleEveryElementsModel) {
   EXPECT_EQ(b.stages.calibrated_points, 60);
   EXPECT_EQ(b.stages.points_requested, a.stages.points_requested);
   ASSERT_EQ(b.calibration.size(), 4u) << "geometry and the plate's three fields";
+  ASSERT_EQ(b.calibration_floors.size(), 4u);
   bool changed = false;
   for (double c : b.calibration) {
     EXPECT_GE(c, 1 / format::kErrorModelSafetyLinear);
@@ -682,7 +745,7 @@ TEST(ErrorCalibration, HeldOutPointsScaleEveryElementsModel) {
   for (flatbuffers::uoffset_t e = 0; e < ea->size(); ++e) {
     const auto *ma = ea->Get(e), *mb = eb->Get(e);
     ASSERT_EQ(ma->vertex_count(), mb->vertex_count());
-    EXPECT_EQ(ma->geometry_floor(), mb->geometry_floor());
+    EXPECT_DOUBLE_EQ(mb->geometry_floor(), ma->geometry_floor() + b.calibration_floors[0]);
     if (!ma->error_model()) {
       EXPECT_EQ(mb->error_model(), nullptr);
       continue;
@@ -699,6 +762,15 @@ TEST(ErrorCalibration, HeldOutPointsScaleEveryElementsModel) {
     }
   }
   EXPECT_GT(modelled, 4);
+  for (flatbuffers::uoffset_t e = 0; e < ea->size(); ++e) {
+    const auto *fa = ea->Get(e)->field_floors(), *fb = eb->Get(e)->field_floors();
+    if (!ea->Get(e)->error_model()) continue;
+    for (std::size_t f = 0; f + 1 < b.calibration_floors.size(); ++f) {
+      const double was = fa ? fa->Get(static_cast<flatbuffers::uoffset_t>(f)) : 0.0;
+      const double is = fb ? fb->Get(static_cast<flatbuffers::uoffset_t>(f)) : 0.0;
+      EXPECT_DOUBLE_EQ(is, was + b.calibration_floors[f + 1]) << "element " << e << ", field " << f;
+    }
+  }
 
   // Against the host at 200 other random points (measure_accuracy's seed 3), each quantity
   // whose factor changed.
@@ -714,10 +786,11 @@ TEST(ErrorCalibration, HeldOutPointsScaleEveryElementsModel) {
                                          fields.begin())
           : 0;
     ASSERT_LT(slot, b.calibration.size());
-    std::printf("[ figures ] %s: factor %.3f, bounded at %.1f %% of %d points, median %.2f\n",
-                name.c_str(), b.calibration[slot], 100 * r.estimate_coverage[q],
-                r.estimate_points[q], r.estimate_median_ratio[q]);
-    if (b.calibration[slot] == 1.0) continue;
+    std::printf(
+        "[ figures ] %s: factor %.3f, floor %.3g, bounded at %.1f %% of %d points, median %.2f\n",
+        name.c_str(), b.calibration[slot], b.calibration_floors[slot], 100 * r.estimate_coverage[q],
+        r.estimate_points[q], r.estimate_median_ratio[q]);
+    if (b.calibration[slot] == 1.0 && b.calibration_floors[slot] == 0.0) continue;
     ++checked;
     EXPECT_GE(r.estimate_points[q], 190) << name;
     EXPECT_GE(r.estimate_coverage[q], 0.9) << name;

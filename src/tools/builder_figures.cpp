@@ -48,6 +48,8 @@ Run build(const cadinterp_host* host, const cadinterp_build_options& o, const st
   if (!b.calibration.empty()) {
     std::fprintf(stderr, "calibrated on %d points, factors", b.stages.calibrated_points);
     for (double c : b.calibration) std::fprintf(stderr, " %.3g", c);
+    std::fprintf(stderr, ", floors added");
+    for (double f : b.calibration_floors) std::fprintf(stderr, " %.3g", f);
     std::fprintf(stderr, " (geometry, then each field)\n");
   }
   Run r;

@@ -264,6 +264,9 @@ void print_summary(std::FILE* out, cadinterp_builder* builder, const cadinterp_b
   if (st.calibration_count > 0) {
     std::fprintf(out, "  calibration        %d points; error model factors", st.calibrated_points);
     for (int q = 0; q < st.calibration_count; ++q) std::fprintf(out, " %.3g", st.calibration[q]);
+    std::fprintf(out, ", floors added");
+    for (int q = 0; q < st.calibration_count; ++q)
+      std::fprintf(out, " %.3g", st.calibration_floors[q]);
     std::fprintf(out, " (geometry, then each field)\n");
   }
   if (r.infeasible_points > 0)

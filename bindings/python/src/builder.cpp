@@ -244,10 +244,13 @@ py::object report_of(const cadinterp_builder* builder, const std::string& output
   stages["maps_again"] = st.maps_again;
   stages["unmapped_fallbacks"] = st.unmapped_fallbacks;
   stages["calibrated_points"] = st.calibrated_points;
-  py::list calibration;
+  py::list calibration, calibration_floors;
   for (int q = 0; st.calibration && q < st.calibration_count; ++q)
     calibration.append(st.calibration[q]);
+  for (int q = 0; st.calibration_floors && q < st.calibration_count; ++q)
+    calibration_floors.append(st.calibration_floors[q]);
   stages["calibration"] = calibration;
+  stages["calibration_floors"] = calibration_floors;
   py::list reasons;
   for (int i = 0; i < st.infeasible_reasons; ++i) {
     const char* message = nullptr;

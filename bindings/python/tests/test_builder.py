@@ -59,11 +59,16 @@ def test_calibration_points_are_asked_and_reported(tmp_path):
     plain = cadinterp.build(BoxHost(), tmp_path / "a.cadi", **COARSE)
     calibrated = cadinterp.build(BoxHost(), tmp_path / "b.cadi", calibration_points=40, **COARSE)
     assert plain.stages["calibrated_points"] == 0 and plain.stages["calibration"] == []
+    assert plain.stages["calibration_floors"] == []
     assert calibrated.host_evaluations == plain.host_evaluations + 40
     assert calibrated.samples == plain.samples
     assert calibrated.stages["calibrated_points"] == 40
     factors = calibrated.stages["calibration"]
     assert len(factors) == 3 and all(f > 0 for f in factors)  # geometry, temperature, pressure
+    floors = calibrated.stages["calibration_floors"]
+    assert len(floors) == 3 and all(f >= 0 for f in floors)
+    # One remedy per quantity: a raised floor leaves the factor at 1.
+    assert all(f == 1 for f, add in zip(factors, floors) if add > 0)
     with pytest.raises(cadinterp.InvalidArgumentError):
         cadinterp.build(BoxHost(), tmp_path / "c.cadi", calibration_points=-1, **COARSE)
 

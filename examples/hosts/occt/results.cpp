@@ -297,6 +297,8 @@ cadinterp::builder::BuildOutcome build_model(const std::string& name, const cadi
     std::fprintf(stderr, "  %s: error model calibrated on %d points, factors", name.c_str(),
                  b.stages.calibrated_points);
     for (double c : b.calibration) std::fprintf(stderr, " %.3g", c);
+    std::fprintf(stderr, ", floors added");
+    for (double f : b.calibration_floors) std::fprintf(stderr, " %.3g", f);
     std::fprintf(stderr, " (geometry, then each field)\n");
   }
   if (!store.empty())
