@@ -24,6 +24,19 @@ double floor_of(const format::ElementData& ed, std::size_t q) {
   return ed.field_floors.empty() ? 0.0 : ed.field_floors[q - 1];
 }
 
+// The least v in [lo, hi] at which `bounds` holds (to 1e-12 of hi), for a predicate that is
+// monotone in v and holds at hi: the estimate the runtime reports is nondecreasing in both the
+// factor and the floor, so its formula (format::error_model_reported) is bisected rather than
+// inverted, and stays the one place that says how an estimate is reported.
+template <class Bounds>
+double least_bounding(double lo, double hi, Bounds bounds) {
+  for (int i = 0; i < 64 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = (lo + hi) / 2;
+    (bounds(mid) ? hi : lo) = mid;
+  }
+  return hi;
+}
+
 }  // namespace
 
 HeldOutPoints ask_held_out_points(const BuildOptions& opt, MeshProblem& problem,
@@ -126,19 +139,14 @@ double calibration_need(double est, bool cubic, bool geometry, double floor, dou
   };
   if (reported(0) >= error) return 0;
   if (!(est >= kCalibrationLeastEstimate)) return std::numeric_limits<double>::infinity();
-  // error_model_reported is nondecreasing in its estimate: bracket the least factor, then bisect
-  // (the runtime's formula stays the one place that says how an estimate is reported).
+  // Bracket the least factor, then bisect.
   double lo = 0, hi = 1;
   while (reported(hi) < error) {
     lo = hi;
     hi *= 2;
     if (hi > 1e300) return std::numeric_limits<double>::infinity();
   }
-  for (int i = 0; i < 64 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = (lo + hi) / 2;
-    (reported(mid) >= error ? hi : lo) = mid;
-  }
-  return hi;
+  return least_bounding(lo, hi, [&](double c) { return reported(c) >= error; });
 }
 
 void calibration_ranks(int n, int& lower, int& upper) {
@@ -173,13 +181,8 @@ double calibration_floor_need(const CalibrationPoint& p) {
     return format::error_model_reported(p.est, p.cubic, p.geometry, p.floor + F);
   };
   if (reported(0) >= p.error) return 0;
-  // Nondecreasing in F, and at least the floor: F = error bounds.
-  double lo = 0, hi = p.error;
-  for (int i = 0; i < 64 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = (lo + hi) / 2;
-    (reported(mid) >= p.error ? hi : lo) = mid;
-  }
-  return hi;
+  // The reported estimate is at least the floor, so F = error bounds.
+  return least_bounding(0.0, p.error, [&](double F) { return reported(F) >= p.error; });
 }
 
 CalibrationChoice calibrate_quantity(const std::vector<CalibrationPoint>& points, double least) {

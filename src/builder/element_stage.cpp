@@ -267,11 +267,11 @@ void ElementStage::build_element(std::size_t e, ElementTally& tally) {
 // (canonical refinement included), blended there, against the host's answer (calibration.h).
 void ElementStage::measure_held_out(std::size_t e, const format::ElementData& ed, const int* terms,
                                     int n) {
+  core::EvalWorkspace ws = cb_.make_workspace();
   for (int i : held_out_->in_element[e]) {
     const auto u = static_cast<std::size_t>(i);
     const Sample& truth = problem_.sample(held_out_->row[u]);
     if (!truth.feasible) continue;
-    core::EvalWorkspace ws = cb_.make_workspace();
     core::BasisWeights w;
     cb_.eval_element(static_cast<int>(e), held_out_->x[u].data(), ws, false, &w);
     stored_errors(ed, terms, n, w, truth, held_out_->error[u]);
